@@ -1,0 +1,58 @@
+// Backend selection by name.
+#include "app/backends.hpp"
+
+#include <fmt/format.h>
+#include <tbb/task_arena.h>
+
+#include "backends/cpu/cpu_backend.hpp"
+#if PT_HAVE_CUDA
+#include "backends/cuda/cuda_backend.hpp"
+#endif
+
+namespace pt {
+
+std::vector<std::string> backend_names() {
+  std::vector<std::string> names{"cpu", "auto"};
+#if PT_HAVE_CUDA
+  names.push_back("cuda");
+#endif
+  return names;
+}
+
+std::string backend_choices() {
+  std::string out;
+  for (const std::string& n : backend_names()) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device) {
+#if PT_HAVE_CUDA
+  if (name == "cuda") return make_cuda_backend<T>(device);
+  if (name == "auto") {
+    if (cuda_device_count() > 0) {
+      fmt::print(stderr, "backend auto: using cuda\n");
+      return make_cuda_backend<T>(device);
+    }
+    fmt::print(stderr, "backend auto: no usable GPU, using cpu\n");
+  }
+#else
+  (void)device;
+  if (name == "auto") fmt::print(stderr, "backend auto: built without GPU backends, using cpu\n");
+#endif
+  return make_cpu_backend<T>(threads);
+}
+
+template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int);
+template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int);
+
+void list_devices() {
+  fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());
+#if PT_HAVE_CUDA
+  list_cuda_devices();
+#else
+  fmt::print("cuda: not built\n");
+#endif
+}
+
+}  // namespace pt

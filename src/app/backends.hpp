@@ -1,0 +1,22 @@
+// Which backends this build has, and making one by name.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "backends/backend.hpp"
+
+namespace pt {
+
+std::vector<std::string> backend_names();
+std::string backend_choices();
+
+// "cpu", "cuda" or "auto" (the GPU when one is usable, else the CPU; says which on stderr).
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device);
+
+// Prints every backend's devices to stdout.
+void list_devices();
+
+}  // namespace pt

@@ -1,0 +1,144 @@
+// The command line: `pathtracer render SCENE -o IMAGE` with overrides, `pathtracer devices`, --help, --version.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "app/backends.hpp"
+#include "film/film.hpp"
+#include "scene/scene_loader.hpp"
+
+#ifndef PT_VERSION
+#define PT_VERSION "0.0.0"
+#endif
+#ifndef PT_DEFAULT_SCENE
+#define PT_DEFAULT_SCENE "scenes/seed-default.json"
+#endif
+
+namespace pt {
+namespace {
+
+struct RenderOptions {
+  std::string scene = PT_DEFAULT_SCENE;
+  std::string output = "render.png";
+  std::optional<u32> width, height, spp, depth, seed;
+  unsigned threads = 0;
+  std::string backend = "cpu";
+  int device = 0;
+  std::string number_format = "float";
+  bool quiet = false;
+};
+
+std::string format_duration(double seconds) {
+  if (seconds < 60) return fmt::format("{:.1f}s", seconds);
+  const long s = static_cast<long>(seconds + 0.5);
+  return s < 3600 ? fmt::format("{}m{:02}s", s / 60, s % 60) : fmt::format("{}h{:02}m", s / 3600, (s / 60) % 60);
+}
+
+std::string format_rate(double per_second) {
+  if (per_second >= 1e9) return fmt::format("{:.2f} G", per_second / 1e9);
+  if (per_second >= 1e6) return fmt::format("{:.2f} M", per_second / 1e6);
+  if (per_second >= 1e3) return fmt::format("{:.2f} k", per_second / 1e3);
+  return fmt::format("{:.0f} ", per_second);
+}
+
+// A one-line progress bar on stderr, redrawn in place; only when stderr is a terminal.
+void draw_progress(const Progress& p) {
+  const double fraction = static_cast<double>(p.samples_done) / p.samples_total;
+  const int width = 30, filled = static_cast<int>(fraction * width);
+  const double eta = fraction > 0 ? p.elapsed_seconds * (1 - fraction) / fraction : 0;
+  fmt::print(stderr, "\r[{}{}] {:5.1f}%  elapsed {}  eta {}  {}samples/s   ", std::string(filled, '#'), std::string(width - filled, '.'),
+             100 * fraction, format_duration(p.elapsed_seconds), format_duration(eta), format_rate(p.samples_per_second));
+  if (p.samples_done == p.samples_total) fmt::print(stderr, "\n");
+  std::fflush(stderr);
+}
+
+template <class T>
+int render_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
+  const FlatScene<T> flat = flatten_scene<T>(scene, settings);
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device);
+  const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
+  if (!options.quiet)
+    fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
+               settings.samples_per_pixel, settings.max_depth, flat.primitives.size(), backend->name(), options.number_format);
+  const RenderResult result = render_scene(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
+  write_image(options.output, result.image);
+  if (!options.quiet) {
+    const RenderStats& s = result.stats;
+    fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
+               format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
+  }
+  return 0;
+}
+
+int run_render(const RenderOptions& options) {
+  // Fail on an unusable output name before spending time on the render.
+  image_format_for(options.output);
+  const SceneDescription scene = load_scene_file(options.scene);
+  RenderSettings settings = scene.render;
+  if (options.width) settings.width = *options.width;
+  if (options.height) settings.height = *options.height;
+  if (options.spp) settings.samples_per_pixel = *options.spp;
+  if (options.depth) settings.max_depth = *options.depth;
+  if (options.seed) settings.seed = *options.seed;
+  if (static_cast<u64>(settings.width) * settings.height > kMaxImagePixels)
+    throw InputError(fmt::format("{}x{} pixels is too large (at most {} pixels)", settings.width, settings.height, kMaxImagePixels));
+  if (options.number_format == "double") return render_with<double>(options, scene, settings);
+  return render_with<float>(options, scene, settings);
+}
+
+}  // namespace
+}  // namespace pt
+
+int main(int argc, char** argv) {
+  using namespace pt;
+  CLI::App app{"pathtracer: a physically based Monte Carlo path tracer for CPUs and GPUs"};
+  app.set_version_flag("--version", std::string("pathtracer ") + PT_VERSION);
+  app.require_subcommand(1);
+
+  RenderOptions options;
+  CLI::App* render = app.add_subcommand("render", "Render a scene file to an image (PNG, PFM or OpenEXR, by extension)");
+  render->add_option("scene", options.scene, "Scene file (JSON); the seed's default scene if omitted");
+  render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
+  render->add_option("--width", options.width, "Image width in pixels")->check(CLI::Range(1u, kMaxImageSide));
+  render->add_option("--height", options.height, "Image height in pixels")->check(CLI::Range(1u, kMaxImageSide));
+  render->add_option("--spp", options.spp, "Samples per pixel")->check(CLI::Range(1u, kMaxSamplesPerPixel));
+  render->add_option("--depth", options.depth, "Maximum path depth (bounces)")->check(CLI::Range(1u, kMaxDepth));
+  render->add_option("--seed", options.seed, "Random seed");
+  render->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
+  render->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
+  render->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
+  render->add_option("--number-format", options.number_format, "Scalar type of the kernels")
+      ->check(CLI::IsMember({"float", "double"}))
+      ->capture_default_str();
+  render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
+
+  CLI::App* devices = app.add_subcommand("devices", "List the devices of every backend built in");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (*devices) {
+      list_devices();
+      return 0;
+    }
+    return run_render(options);
+  } catch (const InputError& e) {
+    fmt::print(stderr, "pathtracer: error: {}\n", e.what());
+  } catch (const BackendError& e) {
+    fmt::print(stderr, "pathtracer: error: {}\n", e.what());
+  } catch (const std::bad_alloc&) {
+    fmt::print(stderr, "pathtracer: error: out of memory\n");
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "pathtracer: error: {}\n", e.what());
+  }
+  return 1;
+}

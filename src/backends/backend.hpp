@@ -1,0 +1,38 @@
+// The host-side interface every backend (CPU threads, CUDA, SYCL) implements: upload the flat scene, render a
+// range of samples into the film it keeps, read the film back.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "flat/flat_scene.hpp"
+
+namespace pt {
+
+template <class T>
+class RenderBackend {
+ public:
+  virtual ~RenderBackend() = default;
+
+  // Human-readable description, e.g. "cpu (2 threads)".
+  virtual std::string name() const = 0;
+
+  // Copies the scene to wherever the backend renders and clears the film to params.width x params.height.
+  virtual void upload(const FlatScene<T>& scene) = 0;
+
+  // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film. Samples must be
+  // rendered in increasing order across calls; the result does not depend on how they are split into calls.
+  virtual void render(u32 first_sample, u32 sample_count) = 0;
+
+  // Copies the film to the host (row-major, rows from the top).
+  virtual void read_film(std::vector<FilmPixel>& pixels) = 0;
+};
+
+// Errors of a backend (no device, out of memory, a failed launch): one clear line, never a crash.
+class BackendError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace pt

@@ -1,0 +1,14 @@
+// The CPU backend: the kernel headers run on all cores through oneTBB, one task per image tile.
+#pragma once
+
+#include <memory>
+
+#include "backends/backend.hpp"
+
+namespace pt {
+
+// threads == 0: all cores.
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_cpu_backend(unsigned threads);
+
+}  // namespace pt

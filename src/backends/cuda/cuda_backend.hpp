@@ -1,0 +1,20 @@
+// The CUDA backend: the same kernel headers compiled by nvcc, with the scene in plain device allocations.
+#pragma once
+
+#include <memory>
+
+#include "backends/backend.hpp"
+
+namespace pt {
+
+// Throws BackendError when no usable GPU is there.
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_cuda_backend(int device);
+
+// Number of usable CUDA devices (0 when the driver is missing or unusable).
+int cuda_device_count();
+
+// Prints the CUDA devices to stdout.
+void list_cuda_devices();
+
+}  // namespace pt

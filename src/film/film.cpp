@@ -1,0 +1,67 @@
+// The render loop and film resolution.
+#include "film/film.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace pt {
+
+LinearImage resolve_film(const std::vector<FilmPixel>& film, u32 width, u32 height) {
+  LinearImage image;
+  image.width = width;
+  image.height = height;
+  image.rgb.resize(static_cast<std::size_t>(width) * height * 3);
+  for (std::size_t i = 0; i < film.size(); ++i) {
+    const FilmPixel& p = film[i];
+    const double scale = p.samples ? 1.0 / p.samples : 0.0;
+    image.rgb[3 * i + 0] = static_cast<float>(p.r * scale);
+    image.rgb[3 * i + 1] = static_cast<float>(p.g * scale);
+    image.rgb[3 * i + 2] = static_cast<float>(p.b * scale);
+  }
+  return image;
+}
+
+RenderStats film_stats(const std::vector<FilmPixel>& film, u32 samples_per_pixel) {
+  RenderStats stats;
+  for (const FilmPixel& p : film) {
+    stats.rays += p.rays;
+    stats.dropped_samples += samples_per_pixel - p.samples;
+  }
+  stats.samples = static_cast<u64>(film.size()) * samples_per_pixel;
+  return stats;
+}
+
+template <class T>
+RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress) {
+  using Clock = std::chrono::steady_clock;
+  backend.upload(scene);
+  const u32 total = scene.samples_per_pixel;
+  const double pixels = static_cast<double>(scene.params.width) * scene.params.height;
+  const auto start = Clock::now();
+  u32 done = 0, pass = 1;
+  while (done < total) {
+    pass = std::min(pass, total - done);
+    backend.render(done, pass);
+    done += pass;
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+    const double rate = elapsed > 0 ? done * pixels / elapsed : 0;
+    if (progress) progress(Progress{done, total, elapsed, rate});
+    // Aim for passes of about half a second: often enough to report, rarely enough to cost nothing.
+    const double per_sample = elapsed / done;
+    const double wanted = per_sample > 0 ? 0.5 / per_sample : 2.0 * pass;
+    pass = static_cast<u32>(std::clamp(wanted, 1.0, std::max(1.0, 4.0 * pass)));
+  }
+  RenderResult result;
+  std::vector<FilmPixel> film;
+  backend.read_film(film);
+  result.stats = film_stats(film, total);
+  result.stats.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  result.image = resolve_film(film, scene.params.width, scene.params.height);
+  return result;
+}
+
+template RenderResult render_scene<float>(RenderBackend<float>&, const FlatScene<float>&, const ProgressCallback&);
+template RenderResult render_scene<double>(RenderBackend<double>&, const FlatScene<double>&, const ProgressCallback&);
+
+}  // namespace pt

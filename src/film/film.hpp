@@ -1,0 +1,43 @@
+// The film and the render loop around a backend: passes of samples, progress, statistics, and the final image.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "backends/backend.hpp"
+#include "image/image_io.hpp"
+
+namespace pt {
+
+struct RenderStats {
+  double seconds = 0;           // wall time of the rendering passes
+  u64 samples = 0;              // camera samples traced
+  u64 rays = 0;                 // closest-hit queries
+  u64 dropped_samples = 0;      // non-finite samples left out of their pixel
+};
+
+struct Progress {
+  u32 samples_done, samples_total;  // per pixel
+  double elapsed_seconds;
+  double samples_per_second;
+};
+
+using ProgressCallback = std::function<void(const Progress&)>;
+
+// The mean of each pixel's finite samples (black where a pixel has none).
+LinearImage resolve_film(const std::vector<FilmPixel>& film, u32 width, u32 height);
+
+// Statistics of a film rendered with `samples_per_pixel` samples per pixel.
+RenderStats film_stats(const std::vector<FilmPixel>& film, u32 samples_per_pixel);
+
+struct RenderResult {
+  LinearImage image;
+  RenderStats stats;
+};
+
+// Uploads the scene and renders all its samples per pixel, in passes sized to report progress about twice a
+// second. The image does not depend on the pass sizes.
+template <class T>
+RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress = {});
+
+}  // namespace pt

@@ -1,0 +1,130 @@
+// Binned SAH BVH construction (16 bins per axis over primitive centroids).
+#include "flat/bvh_builder.hpp"
+
+#include <algorithm>
+#include <array>
+
+namespace pt {
+
+namespace {
+
+constexpr int kBins = 16;
+// Relative costs of visiting a node and intersecting a primitive, for the SAH.
+constexpr double kTraversalCost = 1.0;
+constexpr double kIntersectionCost = 1.0;
+
+class Builder {
+ public:
+  explicit Builder(const std::vector<Aabb>& bounds) : bounds_(bounds) {
+    result_.order.resize(bounds.size());
+    for (u32 i = 0; i < bounds.size(); ++i) result_.order[i] = i;
+    centroids_.reserve(bounds.size());
+    for (const Aabb& b : bounds) centroids_.push_back(b.centroid());
+  }
+
+  BuiltBvh build() {
+    result_.nodes.reserve(2 * bounds_.size());
+    build_node(0, static_cast<u32>(bounds_.size()), 1);
+    return std::move(result_);
+  }
+
+ private:
+  void make_leaf(u32 index, u32 first, u32 count) {
+    result_.nodes[index].left_first = first;
+    result_.nodes[index].count = count;
+  }
+
+  void build_node(u32 first, u32 count, u32 depth) {
+    result_.depth = std::max(result_.depth, depth);
+    const u32 index = static_cast<u32>(result_.nodes.size());
+    result_.nodes.push_back({});
+    Aabb box, centroid_box;
+    for (u32 i = first; i < first + count; ++i) {
+      box.grow(bounds_[result_.order[i]]);
+      centroid_box.grow(centroids_[result_.order[i]]);
+    }
+    result_.nodes[index].lo = box.lo;
+    result_.nodes[index].hi = box.hi;
+    if (count <= 1 || depth >= kBvhMaxDepth) return make_leaf(index, first, count);
+
+    // Best binned split over the three axes.
+    double best_cost = largest<double>();
+    int best_axis = -1, best_bin = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double lo = centroid_box.lo[axis], extent = centroid_box.hi[axis] - lo;
+      if (!(extent > 0)) continue;
+      std::array<Aabb, kBins> bin_boxes;
+      std::array<u32, kBins> bin_counts{};
+      for (u32 i = first; i < first + count; ++i) {
+        const int b = bin_of(centroids_[result_.order[i]][axis], lo, extent);
+        bin_boxes[b].grow(bounds_[result_.order[i]]);
+        ++bin_counts[b];
+      }
+      std::array<double, kBins> right_area{};
+      std::array<u32, kBins> right_count{};
+      Aabb running;
+      u32 running_count = 0;
+      for (int b = kBins - 1; b > 0; --b) {
+        running.grow(bin_boxes[b]);
+        running_count += bin_counts[b];
+        right_area[b] = running.surface_area();
+        right_count[b] = running_count;
+      }
+      running = Aabb{};
+      running_count = 0;
+      for (int b = 0; b < kBins - 1; ++b) {
+        running.grow(bin_boxes[b]);
+        running_count += bin_counts[b];
+        if (running_count == 0 || right_count[b + 1] == 0) continue;
+        const double cost = running.surface_area() * running_count + right_area[b + 1] * right_count[b + 1];
+        if (cost < best_cost) {
+          best_cost = cost;
+          best_axis = axis;
+          best_bin = b;
+        }
+      }
+    }
+
+    const double leaf_cost = kIntersectionCost * count;
+    const double split_cost = kTraversalCost + kIntersectionCost * best_cost / std::max(box.surface_area(), 1e-300);
+    u32 middle;
+    if (best_axis < 0) {
+      // All centroids coincide: no split separates them, so halve the list unless it is small.
+      if (count <= kMaxLeafSize) return make_leaf(index, first, count);
+      middle = first + count / 2;
+    } else {
+      if (count <= kMaxLeafSize && leaf_cost <= split_cost) return make_leaf(index, first, count);
+      const double lo = centroid_box.lo[best_axis], extent = centroid_box.hi[best_axis] - lo;
+      const auto it = std::partition(result_.order.begin() + first, result_.order.begin() + first + count,
+                                     [&](u32 p) { return bin_of(centroids_[p][best_axis], lo, extent) <= best_bin; });
+      middle = static_cast<u32>(it - result_.order.begin());
+    }
+    build_node(first, middle - first, depth + 1);
+    const u32 right = static_cast<u32>(result_.nodes.size());
+    build_node(middle, first + count - middle, depth + 1);
+    result_.nodes[index].left_first = right;
+    result_.nodes[index].count = 0;
+  }
+
+  static int bin_of(double value, double lo, double extent) {
+    const int b = static_cast<int>((value - lo) / extent * kBins);
+    return std::clamp(b, 0, kBins - 1);
+  }
+
+  const std::vector<Aabb>& bounds_;
+  std::vector<Vec3<double>> centroids_;
+  BuiltBvh result_;
+};
+
+}  // namespace
+
+BuiltBvh build_bvh(const std::vector<Aabb>& bounds) {
+  if (bounds.empty()) {
+    BuiltBvh empty;
+    empty.nodes.push_back(BvhNode<double>{Vec3<double>::splat(1), 0, Vec3<double>::splat(-1), 0});
+    return empty;
+  }
+  return Builder(bounds).build();
+}
+
+}  // namespace pt

@@ -1,0 +1,53 @@
+// The flat scene: the parsed scene turned into arrays of trivially copyable structs in the kernels' scalar type,
+// with the BVH built and primitives in BVH order. Backends copy these arrays as they are.
+#pragma once
+
+#include <type_traits>
+#include <vector>
+
+#include "kernel/integrator.hpp"
+#include "scene/scene.hpp"
+
+namespace pt {
+
+template <class T>
+struct FlatScene {
+  std::vector<BvhNode<T>> nodes;
+  std::vector<Primitive<T>> primitives;
+  std::vector<Primitive<T>> boundaries;
+  std::vector<TriangleAttributes<T>> triangle_attributes;
+  std::vector<Material<T>> materials;
+  std::vector<Texture<T>> textures;
+  std::vector<float> texels;
+  std::vector<Vec3<T>> perlin_gradients;
+  std::vector<u32> perlin_permutations;
+  Camera<T> camera;
+  Background<T> background;
+  RenderParams<T> params;
+  u32 samples_per_pixel = 0;
+  u32 bvh_depth = 0;
+
+  // Host pointers into the arrays above (the CPU backend renders from this directly).
+  SceneView<T> view() const;
+  // Bytes of all arrays, as a device copy needs them.
+  std::size_t bytes() const;
+};
+
+// Everything kernels read is copied to devices byte for byte.
+static_assert(std::is_trivially_copyable_v<Primitive<float>>);
+static_assert(std::is_trivially_copyable_v<Material<float>>);
+static_assert(std::is_trivially_copyable_v<Texture<float>>);
+static_assert(std::is_trivially_copyable_v<BvhNode<float>>);
+static_assert(std::is_trivially_copyable_v<SceneView<float>>);
+static_assert(sizeof(BvhNode<float>) == 32, "a BVH node fills one 32-byte sector");
+
+// Flattens the scene with the effective render settings (the file's, after command-line overrides).
+// Throws InputError when the scene cannot be represented (for instance, too many primitives).
+template <class T>
+FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings);
+
+// The brute-force closest hit (every primitive tested): the reference the BVH is checked against.
+template <class T>
+bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit);
+
+}  // namespace pt

@@ -1,0 +1,297 @@
+// Flattening: transforms applied, boxes split into quads, media given their boundary, bounds computed, BVH built,
+// and every value converted from the description's double to the kernels' scalar type.
+#include "flat/flat_scene.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "flat/bvh_builder.hpp"
+
+namespace pt {
+
+namespace {
+
+template <class T> Vec3<T> to(const Vec3d& v) { return {static_cast<T>(v.x), static_cast<T>(v.y), static_cast<T>(v.z)}; }
+
+template <class T>
+Texture<T> to(const Texture<double>& texture) {
+  struct Convert {
+    Texture<T> operator()(const SolidTexture<double>& t) const { return SolidTexture<T>{to<T>(t.color)}; }
+    Texture<T> operator()(const CheckerTexture<double>& t) const {
+      return CheckerTexture<T>{to<T>(t.odd), to<T>(t.even), static_cast<T>(t.frequency)};
+    }
+    Texture<T> operator()(const UvCheckerTexture<double>& t) const {
+      return UvCheckerTexture<T>{to<T>(t.odd), to<T>(t.even), static_cast<T>(t.columns), static_cast<T>(t.rows)};
+    }
+    Texture<T> operator()(const ImageTexture<double>& t) const {
+      return ImageTexture<T>{t.width, t.height, t.offset, static_cast<T>(t.repeat)};
+    }
+    Texture<T> operator()(const NoiseTexture<double>& t) const {
+      return NoiseTexture<T>{static_cast<T>(t.scale), t.kind, t.turbulence_depth};
+    }
+  };
+  return visit(Convert{}, texture);
+}
+
+template <class T>
+Material<T> to(const Material<double>& material) {
+  struct Convert {
+    Material<T> operator()(const Lambertian<double>& m) const { return Lambertian<T>{m.texture}; }
+    Material<T> operator()(const Metal<double>& m) const { return Metal<T>{to<T>(m.albedo), static_cast<T>(m.fuzz)}; }
+    Material<T> operator()(const Dielectric<double>& m) const { return Dielectric<T>{static_cast<T>(m.ior), to<T>(m.tint)}; }
+    Material<T> operator()(const DiffuseLight<double>& m) const { return DiffuseLight<T>{m.texture}; }
+    Material<T> operator()(const Isotropic<double>& m) const { return Isotropic<T>{m.texture}; }
+  };
+  return visit(Convert{}, material);
+}
+
+template <class T>
+Primitive<T> to(const Primitive<double>& primitive) {
+  struct Convert {
+    Shape<T> operator()(const Sphere<double>& s) const { return Sphere<T>{to<T>(s.center), static_cast<T>(s.radius)}; }
+    Shape<T> operator()(const MovingSphere<double>& s) const {
+      return MovingSphere<T>{to<T>(s.center0), static_cast<T>(s.radius), to<T>(s.velocity), static_cast<T>(s.time0)};
+    }
+    Shape<T> operator()(const Triangle<double>& t) const { return Triangle<T>{to<T>(t.p0), to<T>(t.edge1), to<T>(t.edge2), t.attributes}; }
+    Shape<T> operator()(const Quad<double>& q) const { return Quad<T>{to<T>(q.corner), to<T>(q.u), to<T>(q.v), to<T>(q.w)}; }
+    Shape<T> operator()(const ConstantMedium<double>& m) const {
+      return ConstantMedium<T>{m.first_boundary, m.boundary_count, static_cast<T>(m.neg_inv_density)};
+    }
+  };
+  return Primitive<T>{visit(Convert{}, primitive.shape), primitive.material};
+}
+
+Quad<double> make_quad(const Vec3d& corner, const Vec3d& u, const Vec3d& v) {
+  const Vec3d n = cross(u, v);
+  return Quad<double>{corner, u, v, n / dot(n, n)};
+}
+
+// The six faces of a box, outward-facing, moved by the transform.
+std::vector<Quad<double>> box_faces(const BoxSettings& box, const RigidTransform& transform) {
+  const Vec3d a = box.min, b = box.max;
+  const Vec3d dx{b.x - a.x, 0, 0}, dy{0, b.y - a.y, 0}, dz{0, 0, b.z - a.z};
+  const std::array<std::array<Vec3d, 3>, 6> faces{{
+      {Vec3d{a.x, a.y, b.z}, dx, dy},   // +z
+      {Vec3d{b.x, a.y, b.z}, -dz, dy},  // +x
+      {Vec3d{b.x, a.y, a.z}, -dx, dy},  // -z
+      {Vec3d{a.x, a.y, a.z}, dz, dy},   // -x
+      {Vec3d{a.x, b.y, b.z}, dx, -dz},  // +y
+      {Vec3d{a.x, a.y, a.z}, dz, dx},   // -y
+  }};
+  std::vector<Quad<double>> quads;
+  for (const auto& f : faces)
+    quads.push_back(make_quad(transform.apply_point(f[0]), transform.apply_vector(f[1]), transform.apply_vector(f[2])));
+  return quads;
+}
+
+Aabb sphere_bounds(const Vec3d& c, double r) {
+  Aabb box;
+  box.grow(c - Vec3d::splat(r));
+  box.grow(c + Vec3d::splat(r));
+  return box;
+}
+
+Aabb geometry_bounds(const Primitive<double>& p, double shutter_open, double shutter_close) {
+  Aabb box;
+  if (const auto* s = std::get_if<Sphere<double>>(&p.shape)) return sphere_bounds(s->center, s->radius);
+  if (const auto* s = std::get_if<MovingSphere<double>>(&p.shape)) {
+    box = sphere_bounds(moving_sphere_center(*s, shutter_open), s->radius);
+    box.grow(sphere_bounds(moving_sphere_center(*s, shutter_close), s->radius));
+  } else if (const auto* t = std::get_if<Triangle<double>>(&p.shape)) {
+    box.grow(t->p0);
+    box.grow(t->p0 + t->edge1);
+    box.grow(t->p0 + t->edge2);
+  } else if (const auto* q = std::get_if<Quad<double>>(&p.shape)) {
+    box.grow(q->corner);
+    box.grow(q->corner + q->u);
+    box.grow(q->corner + q->v);
+    box.grow(q->corner + q->u + q->v);
+  }
+  return box;
+}
+
+// Widens a box so that rounding in the kernels' scalar type can never make a ray miss the box of a primitive
+// it hits (the BVH must find exactly what brute force finds).
+template <class T>
+BvhNode<T> padded_node(const BvhNode<double>& n) {
+  const Vec3d extent = n.hi - n.lo;
+  const double magnitude = std::max(max_component(vmax(vmax(n.lo, -n.lo), vmax(n.hi, -n.hi))), max_component(extent));
+  const double pad = 1e-5 * magnitude + 1e-9;
+  BvhNode<T> out;
+  out.lo = to<T>(n.lo - Vec3d::splat(pad));
+  out.hi = to<T>(n.hi + Vec3d::splat(pad));
+  out.left_first = n.left_first;
+  out.count = n.count;
+  return out;
+}
+
+template <class T>
+Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
+  const double theta = c.vertical_fov * 3.14159265358979323846 / 180.0;
+  const double viewport_height = 2.0 * std::tan(theta / 2);
+  const double viewport_width = viewport_height * width / height;
+  const Vec3d w = normalize(c.look_from - c.look_at);
+  const Vec3d u = normalize(cross(c.up, w));
+  const Vec3d v = cross(w, u);
+  const Vec3d horizontal = c.focus_distance * viewport_width * u;
+  const Vec3d vertical = c.focus_distance * viewport_height * v;
+  const Vec3d lower_left = c.look_from - horizontal / 2.0 - vertical / 2.0 - c.focus_distance * w;
+  const double lens_radius = c.aperture / 2;
+  return Camera<T>{to<T>(c.look_from), to<T>(lower_left), to<T>(horizontal), to<T>(vertical),
+                   to<T>(u * lens_radius),  to<T>(v * lens_radius),  static_cast<T>(c.shutter_open),
+                   static_cast<T>(c.shutter_close - c.shutter_open)};
+}
+
+// Perlin tables from a fixed hash, identical on every platform and compiler.
+template <class T>
+void make_perlin_tables(FlatScene<T>& flat) {
+  auto uniform = [](u64 i) { return static_cast<double>(mix64(i * 0x9e3779b97f4a7c15ULL + 0x5bd1e995u) >> 11) * 0x1p-53; };
+  for (u32 i = 0; i < kPerlinPoints; ++i) {
+    const Vec3d g = uniform_unit_vector(uniform(2 * i), uniform(2 * i + 1));
+    flat.perlin_gradients.push_back(to<T>(g));
+  }
+  for (u32 axis = 0; axis < 3; ++axis) {
+    std::vector<u32> p(kPerlinPoints);
+    for (u32 i = 0; i < kPerlinPoints; ++i) p[i] = i;
+    for (u32 i = kPerlinPoints - 1; i > 0; --i) {
+      const u32 j = static_cast<u32>(mix64(0xabcdefULL + axis * 1000003ULL + i) % (i + 1));
+      std::swap(p[i], p[j]);
+    }
+    flat.perlin_permutations.insert(flat.perlin_permutations.end(), p.begin(), p.end());
+  }
+}
+
+}  // namespace
+
+template <class T>
+FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings) {
+  std::vector<Primitive<double>> primitives, boundaries;
+  std::vector<TriangleAttributes<double>> attributes;
+  for (const SceneObject& object : scene.objects) {
+    const RigidTransform& xf = object.transform;
+    if (const auto* s = std::get_if<Sphere<double>>(&object.shape)) {
+      primitives.push_back({Sphere<double>{xf.apply_point(s->center), s->radius}, object.material});
+    } else if (const auto* s = std::get_if<MovingSphereSettings>(&object.shape)) {
+      const Vec3d c0 = xf.apply_point(s->center0), c1 = xf.apply_point(s->center1);
+      primitives.push_back({MovingSphere<double>{c0, s->radius, (c1 - c0) / (s->time1 - s->time0), s->time0}, object.material});
+    } else if (const auto* t = std::get_if<TriangleSettings>(&object.shape)) {
+      const Vec3d p0 = xf.apply_point(t->vertices[0]), p1 = xf.apply_point(t->vertices[1]), p2 = xf.apply_point(t->vertices[2]);
+      i32 attribute_index = -1;
+      if (t->normals || t->uvs) {
+        TriangleAttributes<double> a{};
+        if (t->normals) {
+          a.has_normals = 1;
+          for (int i = 0; i < 3; ++i) a.normal[i] = normalize(xf.apply_vector((*t->normals)[i]));
+        }
+        if (t->uvs) {
+          a.has_uvs = 1;
+          for (int i = 0; i < 3; ++i) {
+            a.u[i] = (*t->uvs)[i][0];
+            a.v[i] = (*t->uvs)[i][1];
+          }
+        }
+        attribute_index = static_cast<i32>(attributes.size());
+        attributes.push_back(a);
+      }
+      primitives.push_back({Triangle<double>{p0, p1 - p0, p2 - p0, attribute_index}, object.material});
+    } else if (const auto* q = std::get_if<QuadSettings>(&object.shape)) {
+      primitives.push_back({make_quad(xf.apply_point(q->corner), xf.apply_vector(q->u), xf.apply_vector(q->v)), object.material});
+    } else if (const auto* b = std::get_if<BoxSettings>(&object.shape)) {
+      for (const Quad<double>& face : box_faces(*b, xf)) primitives.push_back({face, object.material});
+    } else if (const auto* m = std::get_if<MediumSettings>(&object.shape)) {
+      const RigidTransform boundary_xf = m->boundary_transform.then(xf);
+      const u32 first = static_cast<u32>(boundaries.size());
+      if (const auto* s = std::get_if<Sphere<double>>(&m->boundary))
+        boundaries.push_back({Sphere<double>{boundary_xf.apply_point(s->center), s->radius}, object.material});
+      else
+        for (const Quad<double>& face : box_faces(std::get<BoxSettings>(m->boundary), boundary_xf)) boundaries.push_back({face, object.material});
+      primitives.push_back({ConstantMedium<double>{first, static_cast<u32>(boundaries.size()) - first, -1.0 / m->density}, object.material});
+    }
+  }
+  // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
+  if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
+
+  const double open = scene.camera.shutter_open, close = scene.camera.shutter_close;
+  std::vector<Aabb> bounds;
+  bounds.reserve(primitives.size());
+  for (const Primitive<double>& p : primitives) {
+    if (const auto* m = std::get_if<ConstantMedium<double>>(&p.shape)) {
+      Aabb box;
+      for (u32 i = 0; i < m->boundary_count; ++i) box.grow(geometry_bounds(boundaries[m->first_boundary + i], open, close));
+      bounds.push_back(box);
+    } else {
+      bounds.push_back(geometry_bounds(p, open, close));
+    }
+  }
+  const BuiltBvh bvh = build_bvh(bounds);
+
+  FlatScene<T> flat;
+  flat.bvh_depth = bvh.depth;
+  flat.nodes.reserve(bvh.nodes.size());
+  for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
+  flat.primitives.reserve(primitives.size());
+  for (u32 index : bvh.order) flat.primitives.push_back(to<T>(primitives[index]));
+  for (const Primitive<double>& p : boundaries) flat.boundaries.push_back(to<T>(p));
+  for (const TriangleAttributes<double>& a : attributes) {
+    TriangleAttributes<T> out{};
+    for (int i = 0; i < 3; ++i) {
+      out.normal[i] = to<T>(a.normal[i]);
+      out.u[i] = static_cast<T>(a.u[i]);
+      out.v[i] = static_cast<T>(a.v[i]);
+    }
+    out.has_normals = a.has_normals;
+    out.has_uvs = a.has_uvs;
+    flat.triangle_attributes.push_back(out);
+  }
+  for (const Material<double>& m : scene.materials) flat.materials.push_back(to<T>(m));
+  for (const Texture<double>& t : scene.textures) flat.textures.push_back(to<T>(t));
+  flat.texels = scene.texels;
+  make_perlin_tables(flat);
+  flat.camera = make_camera<T>(scene.camera, settings.width, settings.height);
+  flat.background = Background<T>{to<T>(scene.background.horizon), to<T>(scene.background.zenith)};
+  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth,
+                                static_cast<T>(settings.t_min)};
+  flat.samples_per_pixel = settings.samples_per_pixel;
+  return flat;
+}
+
+template <class T>
+SceneView<T> FlatScene<T>::view() const {
+  return SceneView<T>{nodes.data(),     primitives.data(), boundaries.data(), triangle_attributes.data(),
+                      materials.data(), textures.data(),   TextureData<T>{texels.data(), perlin_gradients.data(), perlin_permutations.data()},
+                      camera,           background,        params};
+}
+
+template <class T>
+std::size_t FlatScene<T>::bytes() const {
+  return nodes.size() * sizeof(nodes[0]) + primitives.size() * sizeof(primitives[0]) + boundaries.size() * sizeof(boundaries[0]) +
+         triangle_attributes.size() * sizeof(TriangleAttributes<T>) + materials.size() * sizeof(Material<T>) +
+         textures.size() * sizeof(Texture<T>) + texels.size() * sizeof(float) + perlin_gradients.size() * sizeof(Vec3<T>) +
+         perlin_permutations.size() * sizeof(u32);
+}
+
+template <class T>
+bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  T closest = largest<T>();
+  bool found = false;
+  for (u32 i = 0; i < scene.primitives.size(); ++i) {
+    Hit<T> candidate;
+    if (intersect_primitive(scene.primitives[i], i, context, ray, scene.params.t_min, closest, candidate)) {
+      closest = candidate.t;
+      hit = candidate;
+      hit.primitive = i;
+      found = true;
+    }
+  }
+  return found;
+}
+
+#define PT_INSTANTIATE_FLAT_SCENE(T)                                                                  \
+  template struct FlatScene<T>;                                                                       \
+  template FlatScene<T> flatten_scene<T>(const SceneDescription&, const RenderSettings&);            \
+  template bool closest_hit_brute_force<T>(const FlatScene<T>&, const Ray<T>&, const IntersectContext<T>&, Hit<T>&);
+PT_INSTANTIATE_FLAT_SCENE(float)
+PT_INSTANTIATE_FLAT_SCENE(double)
+
+}  // namespace pt

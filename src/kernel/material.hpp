@@ -1,0 +1,110 @@
+// Materials: how a surface scatters or emits light. One definition of each, used by every integrator.
+#pragma once
+
+#include <variant>
+
+#include "kernel/random.hpp"
+#include "kernel/texture.hpp"
+
+namespace pt {
+
+template <class T> struct Lambertian { u32 texture; };
+template <class T> struct Metal { Color<T> albedo; T fuzz; };
+template <class T> struct Dielectric { T ior; Color<T> tint; };
+template <class T> struct DiffuseLight { u32 texture; };
+template <class T> struct Isotropic { u32 texture; };
+
+template <class T>
+using Material = std::variant<Lambertian<T>, Metal<T>, Dielectric<T>, DiffuseLight<T>, Isotropic<T>>;
+
+// Where a ray met a surface (or a scattering point in a medium).
+template <class T>
+struct SurfacePoint {
+  Vec3<T> p;
+  Vec3<T> normal;  // unit, facing against the incoming ray
+  T u, v;
+  bool front_face;  // the ray came from the side the geometric normal points to
+  u32 material;
+};
+
+template <class T>
+struct Scatter {
+  Color<T> attenuation;
+  Ray<T> ray;
+};
+
+// Schlick's approximation of the Fresnel reflectance of a dielectric.
+template <class T>
+PT_HD inline T schlick_reflectance(T cosine, T eta) {
+  T r0 = (T(1) - eta) / (T(1) + eta);
+  r0 = r0 * r0;
+  const T m = T(1) - cosine;
+  const T m2 = m * m;
+  return r0 + (T(1) - r0) * (m2 * m2 * m);
+}
+
+// Samples the next direction. Returns false when the material absorbs the ray (or only emits).
+template <class T>
+PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in, const SurfacePoint<T>& at,
+                                   const Texture<T>* textures, const TextureData<T>& data, const BounceRandom& random,
+                                   Scatter<T>& out) {
+  struct Sample {
+    const Ray<T>& in;
+    const SurfacePoint<T>& at;
+    const Texture<T>* textures;
+    const TextureData<T>& data;
+    const BounceRandom& random;
+    Scatter<T>& out;
+
+    PT_HD Color<T> albedo(u32 texture) const { return texture_value(textures[texture], TexturePoint<T>{at.u, at.v, at.p}, data); }
+    PT_HD Vec3<T> random_direction() const {
+      return uniform_unit_vector(random.template uniform<T>(kDimScatterA), random.template uniform<T>(kDimScatterB));
+    }
+
+    PT_HD bool operator()(const Lambertian<T>& m) const {
+      // Normal plus a uniform unit vector is cosine-distributed about the normal.
+      Vec3<T> direction = at.normal + random_direction();
+      const T len2 = length_squared(direction);
+      direction = len2 > constant<T>(1e-12) ? direction / sqrt(len2) : at.normal;
+      out = {albedo(m.texture), Ray<T>{at.p, direction, in.time}};
+      return true;
+    }
+    PT_HD bool operator()(const Metal<T>& m) const {
+      Vec3<T> direction = reflect(in.direction, at.normal) + m.fuzz * random_direction();
+      const T len2 = length_squared(direction);
+      if (!(len2 > T(0))) return false;
+      direction = direction / sqrt(len2);
+      out = {m.albedo, Ray<T>{at.p, direction, in.time}};
+      return dot(direction, at.normal) > T(0);
+    }
+    PT_HD bool operator()(const Dielectric<T>& m) const {
+      const T eta = at.front_face ? T(1) / m.ior : m.ior;
+      const T cos_i = min(-dot(in.direction, at.normal), T(1));
+      const T sin_t2 = eta * eta * (T(1) - cos_i * cos_i);
+      Vec3<T> direction;
+      if (sin_t2 > T(1) || schlick_reflectance(cos_i, eta) > random.template uniform<T>(kDimScatterC))
+        direction = reflect(in.direction, at.normal);
+      else
+        direction = refract(in.direction, at.normal, eta, cos_i);
+      out = {m.tint, Ray<T>{at.p, normalize(direction), in.time}};
+      return true;
+    }
+    PT_HD bool operator()(const DiffuseLight<T>&) const { return false; }
+    PT_HD bool operator()(const Isotropic<T>& m) const {
+      out = {albedo(m.texture), Ray<T>{at.p, random_direction(), in.time}};
+      return true;
+    }
+  };
+  return visit(Sample{in, at, textures, data, random, out}, material);
+}
+
+// Radiance the surface emits towards the incoming ray.
+template <class T>
+PT_HD inline Color<T> material_emitted(const Material<T>& material, const SurfacePoint<T>& at, const Texture<T>* textures,
+                                       const TextureData<T>& data) {
+  if (const auto* light = std::get_if<DiffuseLight<T>>(&material))
+    return texture_value(textures[light->texture], TexturePoint<T>{at.u, at.v, at.p}, data);
+  return Color<T>{};
+}
+
+}  // namespace pt

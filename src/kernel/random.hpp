@@ -1,0 +1,82 @@
+// Counter-based random numbers: every draw is a pure function of (seed, pixel, sample, bounce, dimension),
+// so an image never depends on thread count, tile order or backend, and no generator state is shared.
+#pragma once
+
+#include "kernel/vec3.hpp"
+
+namespace pt {
+
+// The 64-bit finaliser of MurmurHash3: a bijection whose output bits all depend on all input bits.
+PT_HD inline u64 mix64(u64 x) {
+  x ^= x >> 33;
+  x *= 0xff51afd7ed558ccdULL;
+  x ^= x >> 33;
+  x *= 0xc4ceb9fe1a85ec53ULL;
+  x ^= x >> 33;
+  return x;
+}
+
+// Which random dimension each decision of a bounce uses. Fixed numbers, so that two integrators that make the
+// same decisions draw the same numbers.
+enum RandomDimension : u32 {
+  kDimPixelX = 0,
+  kDimPixelY = 1,
+  kDimLensU = 2,
+  kDimLensV = 3,
+  kDimTime = 4,
+  kDimScatterA = 8,
+  kDimScatterB = 9,
+  kDimScatterC = 10,
+  kDimRoulette = 12,
+  // A medium draws its free-flight distance from dimension kDimMediumBase + its primitive index, so the draw
+  // does not depend on the order in which the acceleration structure visits primitives.
+  kDimMediumBase = 64,
+};
+
+// The random stream of one sample of one pixel: a SplitMix-style generator indexed by (bounce, dimension).
+struct SampleRandom {
+  u64 key;
+
+  PT_HD static SampleRandom make(u32 seed, u32 pixel, u32 sample) {
+    const u64 seed_and_pixel = (static_cast<u64>(seed) << 32) | pixel;
+    return SampleRandom{mix64(mix64(seed_and_pixel + 0x9e3779b97f4a7c15ULL) ^ (static_cast<u64>(sample) * 0xd1b54a32d192ed03ULL))};
+  }
+
+  PT_HD u32 bits(u32 bounce, u32 dimension) const {
+    const u64 counter = (static_cast<u64>(bounce) << 32) | dimension;
+    return static_cast<u32>(mix64(key + (counter + 1) * 0x9e3779b97f4a7c15ULL) >> 32);
+  }
+
+  // Uniform in [0, 1), with 24 random bits (exactly representable in every supported scalar type).
+  template <class T>
+  PT_HD T uniform(u32 bounce, u32 dimension) const {
+    return ScalarTraits<T>::from_unit_bits(bits(bounce, dimension) >> 8);
+  }
+};
+
+// The draws of one bounce: fixes the bounce so materials only name dimensions.
+struct BounceRandom {
+  const SampleRandom* stream;
+  u32 bounce;
+  template <class T>
+  PT_HD T uniform(u32 dimension) const { return stream->template uniform<T>(bounce, dimension); }
+};
+
+// Uniformly distributed direction on the unit sphere.
+template <class T>
+PT_HD inline Vec3<T> uniform_unit_vector(T u1, T u2) {
+  const T z = T(1) - constant<T>(2) * u1;
+  const T r = sqrt(max(T(0), T(1) - z * z));
+  const T phi = constant<T>(2) * pi<T>() * u2;
+  return {r * cos(phi), r * sin(phi), z};
+}
+
+// Uniformly distributed point in the unit disk (polar mapping with the square root for uniform area).
+template <class T>
+PT_HD inline Vec3<T> uniform_in_unit_disk(T u1, T u2) {
+  const T r = sqrt(u1);
+  const T phi = constant<T>(2) * pi<T>() * u2;
+  return {r * cos(phi), r * sin(phi), T(0)};
+}
+
+}  // namespace pt

@@ -1,0 +1,74 @@
+// The scalar type's traits: every transcendental and constant a kernel needs goes through here, so a new
+// number format (double, fixed point) plugs in by specialising ScalarTraits, without touching any kernel.
+#pragma once
+
+#include <cmath>
+#include <cfloat>
+
+#include "kernel/platform.hpp"
+
+namespace pt {
+
+template <class T>
+struct ScalarTraits;
+
+template <>
+struct ScalarTraits<float> {
+  PT_HD static float sqrt(float x) { return ::sqrtf(x); }
+  PT_HD static float sin(float x) { return ::sinf(x); }
+  PT_HD static float cos(float x) { return ::cosf(x); }
+  PT_HD static float atan2(float y, float x) { return ::atan2f(y, x); }
+  PT_HD static float asin(float x) { return ::asinf(x); }
+  PT_HD static float log(float x) { return ::logf(x); }
+  PT_HD static float floor(float x) { return ::floorf(x); }
+  PT_HD static float abs(float x) { return ::fabsf(x); }
+  // Comparisons rather than fminf/fmaxf: those are library calls on x86-64 (they must order NaN), which cost
+  // half the render time in the BVH slab test; the kernels keep NaN out of the values they compare.
+  PT_HD static float min(float a, float b) { return a < b ? a : b; }
+  PT_HD static float max(float a, float b) { return a > b ? a : b; }
+  // x - x is 0 for every finite x and NaN for infinities and NaN (exact without fast-math).
+  PT_HD static bool is_finite(float x) { return x - x == 0.0f; }
+  PT_HD static float largest() { return FLT_MAX; }
+  PT_HD static float from_unit_bits(u32 bits24) { return static_cast<float>(bits24) * 0x1p-24f; }
+  // Relative size of the tolerance used where two surfaces meet (grazing tests, degenerate triangles).
+  PT_HD static float epsilon() { return 1e-8f; }
+};
+
+template <>
+struct ScalarTraits<double> {
+  PT_HD static double sqrt(double x) { return ::sqrt(x); }
+  PT_HD static double sin(double x) { return ::sin(x); }
+  PT_HD static double cos(double x) { return ::cos(x); }
+  PT_HD static double atan2(double y, double x) { return ::atan2(y, x); }
+  PT_HD static double asin(double x) { return ::asin(x); }
+  PT_HD static double log(double x) { return ::log(x); }
+  PT_HD static double floor(double x) { return ::floor(x); }
+  PT_HD static double abs(double x) { return ::fabs(x); }
+  PT_HD static double min(double a, double b) { return a < b ? a : b; }
+  PT_HD static double max(double a, double b) { return a > b ? a : b; }
+  PT_HD static bool is_finite(double x) { return x - x == 0.0; }
+  PT_HD static double largest() { return DBL_MAX; }
+  PT_HD static double from_unit_bits(u32 bits24) { return static_cast<double>(bits24) * 0x1p-24; }
+  PT_HD static double epsilon() { return 1e-12; }
+};
+
+// Short names used throughout the kernels; they only forward to the traits.
+template <class T> PT_HD inline T sqrt(T x) { return ScalarTraits<T>::sqrt(x); }
+template <class T> PT_HD inline T sin(T x) { return ScalarTraits<T>::sin(x); }
+template <class T> PT_HD inline T cos(T x) { return ScalarTraits<T>::cos(x); }
+template <class T> PT_HD inline T atan2(T y, T x) { return ScalarTraits<T>::atan2(y, x); }
+template <class T> PT_HD inline T asin(T x) { return ScalarTraits<T>::asin(x); }
+template <class T> PT_HD inline T log(T x) { return ScalarTraits<T>::log(x); }
+template <class T> PT_HD inline T floor(T x) { return ScalarTraits<T>::floor(x); }
+template <class T> PT_HD inline T abs(T x) { return ScalarTraits<T>::abs(x); }
+template <class T> PT_HD inline T min(T a, T b) { return ScalarTraits<T>::min(a, b); }
+template <class T> PT_HD inline T max(T a, T b) { return ScalarTraits<T>::max(a, b); }
+template <class T> PT_HD inline bool is_finite(T x) { return ScalarTraits<T>::is_finite(x); }
+template <class T> PT_HD inline T largest() { return ScalarTraits<T>::largest(); }
+template <class T> PT_HD inline T clamp(T x, T lo, T hi) { return min(max(x, lo), hi); }
+
+// Constants are written in double and converted once, so that a scalar type only needs a conversion from double.
+template <class T> PT_HD constexpr T constant(double value) { return static_cast<T>(value); }
+template <class T> PT_HD constexpr T pi() { return constant<T>(3.14159265358979323846); }
+
+}  // namespace pt

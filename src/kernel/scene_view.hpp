@@ -1,0 +1,148 @@
+// The flat scene as kernels see it: plain pointers to arrays of trivially copyable structs (device pointers on
+// an accelerator), the camera, the background, and the closest-hit query over the BVH.
+#pragma once
+
+#include "kernel/shapes.hpp"
+
+namespace pt {
+
+// A node of the flattened BVH. Interior nodes (count == 0) have their first child right after them and the second
+// at `left_first`; leaves hold primitives [left_first, left_first + count).
+template <class T>
+struct BvhNode {
+  Vec3<T> lo;
+  u32 left_first;
+  Vec3<T> hi;
+  u32 count;
+};
+
+// The builder never makes a deeper tree, so a traversal stack of this size cannot overflow.
+inline constexpr u32 kBvhMaxDepth = 64;
+
+// A thin-lens camera, set up on the host: rays start on the lens and pass through the focus plane.
+template <class T>
+struct Camera {
+  Vec3<T> origin;
+  Vec3<T> lower_left;  // corner of the image on the focus plane
+  Vec3<T> horizontal, vertical;
+  Vec3<T> lens_u, lens_v;  // lens radius already folded in
+  T time0, time_span;
+};
+
+template <class T>
+struct Background {
+  Color<T> horizon, zenith;  // equal colours give a constant background
+};
+
+template <class T>
+struct RenderParams {
+  u32 width, height;
+  u32 max_depth;
+  u32 seed;
+  u32 roulette_depth;  // 0: no Russian roulette
+  T t_min;
+};
+
+template <class T>
+struct SceneView {
+  const BvhNode<T>* nodes;
+  const Primitive<T>* primitives;
+  const Primitive<T>* boundaries;
+  const TriangleAttributes<T>* triangle_attributes;
+  const Material<T>* materials;
+  const Texture<T>* textures;
+  TextureData<T> texture_data;
+  Camera<T> camera;
+  Background<T> background;
+  RenderParams<T> params;
+};
+
+template <class T>
+PT_HD inline Color<T> background_radiance(const Background<T>& background, const Vec3<T>& direction) {
+  const T a = constant<T>(0.5) * (direction.y + T(1));
+  return lerp(background.horizon, background.zenith, a);
+}
+
+template <class T>
+PT_HD inline Ray<T> camera_ray(const Camera<T>& camera, const RenderParams<T>& params, u32 x, u32 y, const SampleRandom& random) {
+  const T s = (T(x) + random.uniform<T>(0, kDimPixelX)) / T(params.width);
+  const T t = T(1) - (T(y) + random.uniform<T>(0, kDimPixelY)) / T(params.height);
+  const Vec3<T> lens = uniform_in_unit_disk(random.uniform<T>(0, kDimLensU), random.uniform<T>(0, kDimLensV));
+  const Vec3<T> origin = camera.origin + lens.x * camera.lens_u + lens.y * camera.lens_v;
+  const Vec3<T> target = camera.lower_left + s * camera.horizontal + t * camera.vertical;
+  const T time = camera.time0 + camera.time_span * random.uniform<T>(0, kDimTime);
+  return Ray<T>{origin, normalize(target - origin), time};
+}
+
+// Slab test of a node's box against the ray, between t_min and the closest hit so far.
+template <class T>
+PT_HD inline bool ray_hits_box(const BvhNode<T>& node, const Vec3<T>& inv_direction, const Vec3<T>& origin_times_inv, T t_min,
+                               T t_max, T& t_entry) {
+  const T tx0 = node.lo.x * inv_direction.x - origin_times_inv.x, tx1 = node.hi.x * inv_direction.x - origin_times_inv.x;
+  const T ty0 = node.lo.y * inv_direction.y - origin_times_inv.y, ty1 = node.hi.y * inv_direction.y - origin_times_inv.y;
+  const T tz0 = node.lo.z * inv_direction.z - origin_times_inv.z, tz1 = node.hi.z * inv_direction.z - origin_times_inv.z;
+  const T near = max(max(min(tx0, tx1), min(ty0, ty1)), max(min(tz0, tz1), t_min));
+  const T far = min(min(max(tx0, tx1), max(ty0, ty1)), min(max(tz0, tz1), t_max));
+  t_entry = near;
+  return near <= far;
+}
+
+// 1 / d, with zero components nudged so the reciprocal stays finite (keeps the slab test free of inf - inf).
+template <class T>
+PT_HD inline T safe_reciprocal(T d) {
+  const T tiny = constant<T>(1e-20);
+  return T(1) / (abs(d) > tiny ? d : (d < T(0) ? -tiny : tiny));
+}
+
+// Closest hit along the ray beyond t_min, by iterative BVH traversal with a fixed-size stack.
+template <class T>
+PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  const Vec3<T> inv{safe_reciprocal(ray.direction.x), safe_reciprocal(ray.direction.y), safe_reciprocal(ray.direction.z)};
+  const Vec3<T> origin_times_inv = ray.origin * inv;
+  const T t_min = scene.params.t_min;
+  T closest = largest<T>();
+  bool found = false;
+  u32 stack[kBvhMaxDepth];
+  u32 stack_size = 0;
+  u32 node_index = 0;
+  T entry;
+  if (!ray_hits_box(scene.nodes[0], inv, origin_times_inv, t_min, closest, entry)) return false;
+  while (true) {
+    const BvhNode<T>& node = scene.nodes[node_index];
+    if (node.count > 0) {
+      for (u32 i = node.left_first; i < node.left_first + node.count; ++i) {
+        Hit<T> candidate;
+        if (intersect_primitive(scene.primitives[i], i, context, ray, t_min, closest, candidate)) {
+          closest = candidate.t;
+          hit = candidate;
+          hit.primitive = i;
+          found = true;
+        }
+      }
+    } else {
+      u32 near_child = node_index + 1, far_child = node.left_first;
+      T near_entry, far_entry;
+      const bool near_hit = ray_hits_box(scene.nodes[near_child], inv, origin_times_inv, t_min, closest, near_entry);
+      const bool far_hit = ray_hits_box(scene.nodes[far_child], inv, origin_times_inv, t_min, closest, far_entry);
+      if (near_hit && far_hit) {
+        if (far_entry < near_entry) {
+          const u32 swap = near_child;
+          near_child = far_child;
+          far_child = swap;
+        }
+        stack[stack_size++] = far_child;
+        node_index = near_child;
+        continue;
+      }
+      if (near_hit || far_hit) {
+        node_index = near_hit ? near_child : far_child;
+        continue;
+      }
+    }
+    if (stack_size == 0) break;
+    node_index = stack[--stack_size];
+  }
+  return found;
+}
+
+}  // namespace pt

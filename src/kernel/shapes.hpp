@@ -1,0 +1,255 @@
+// Shapes: ray intersection (distance only, cheap, called many times per ray) and the surface description
+// (normal, texture coordinates; called once for the closest hit).
+#pragma once
+
+#include <variant>
+
+#include "kernel/material.hpp"
+
+namespace pt {
+
+template <class T> struct Sphere { Vec3<T> center; T radius; };
+
+// A sphere whose centre moves linearly: centre(time) = center0 + velocity * (time - time0).
+template <class T> struct MovingSphere { Vec3<T> center0; T radius; Vec3<T> velocity; T time0; };
+
+// Vertices p0, p0 + edge1, p0 + edge2; `attributes` indexes per-vertex normals and uvs, or is -1.
+template <class T> struct Triangle { Vec3<T> p0, edge1, edge2; i32 attributes; };
+
+template <class T>
+struct TriangleAttributes {
+  Vec3<T> normal[3];
+  T u[3], v[3];
+  u32 has_normals, has_uvs;
+};
+
+// The parallelogram corner + a u + b v for a, b in [0, 1]; w = (u x v) / |u x v|^2 gives a and b cheaply.
+template <class T> struct Quad { Vec3<T> corner, u, v, w; };
+
+// A constant-density medium inside a convex boundary made of `boundary_count` geometric primitives stored from
+// `first_boundary` in the scene's boundary array. neg_inv_density = -1 / density.
+template <class T> struct ConstantMedium { u32 first_boundary, boundary_count; T neg_inv_density; };
+
+template <class T>
+using Shape = std::variant<Sphere<T>, MovingSphere<T>, Triangle<T>, Quad<T>, ConstantMedium<T>>;
+
+template <class T>
+struct Primitive {
+  Shape<T> shape;
+  u32 material;
+};
+
+// The closest hit found so far: distance, two surface parameters (barycentrics, quad coordinates) and which primitive.
+template <class T>
+struct Hit {
+  T t;
+  T b1, b2;
+  u32 primitive;
+};
+
+// What intersecting a medium needs besides the ray: its boundary and a random number for the free-flight distance.
+template <class T>
+struct IntersectContext {
+  const Primitive<T>* boundaries;
+  const SampleRandom* random;
+  u32 bounce;
+};
+
+template <class T>
+PT_HD inline bool intersect_sphere(const Vec3<T>& center, T radius, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  // With a unit direction the quadratic is t^2 + 2 b t + c; the discriminant is formed from the perpendicular
+  // distance to the centre, which stays accurate for large spheres seen from close by.
+  const Vec3<T> oc = ray.origin - center;
+  const T b = dot(oc, ray.direction);
+  const Vec3<T> perpendicular = oc - b * ray.direction;
+  const T discriminant = radius * radius - length_squared(perpendicular);
+  if (discriminant < T(0)) return false;
+  const T root = sqrt(discriminant);
+  T t = -b - root;
+  if (!(t > t_min && t < t_max)) {
+    t = -b + root;
+    if (!(t > t_min && t < t_max)) return false;
+  }
+  hit.t = t;
+  hit.b1 = T(0);
+  hit.b2 = T(0);
+  return true;
+}
+
+template <class T>
+PT_HD inline Vec3<T> moving_sphere_center(const MovingSphere<T>& s, T time) {
+  return s.center0 + (time - s.time0) * s.velocity;
+}
+
+// Möller-Trumbore.
+template <class T>
+PT_HD inline bool intersect_triangle(const Triangle<T>& tri, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  const Vec3<T> pvec = cross(ray.direction, tri.edge2);
+  const T det = dot(tri.edge1, pvec);
+  if (det == T(0)) return false;
+  const T inv_det = T(1) / det;
+  const Vec3<T> tvec = ray.origin - tri.p0;
+  const T b1 = dot(tvec, pvec) * inv_det;
+  if (!(b1 >= T(0) && b1 <= T(1))) return false;
+  const Vec3<T> qvec = cross(tvec, tri.edge1);
+  const T b2 = dot(ray.direction, qvec) * inv_det;
+  if (!(b2 >= T(0) && b1 + b2 <= T(1))) return false;
+  const T t = dot(tri.edge2, qvec) * inv_det;
+  if (!(t > t_min && t < t_max)) return false;
+  hit.t = t;
+  hit.b1 = b1;
+  hit.b2 = b2;
+  return true;
+}
+
+template <class T>
+PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  const T denominator = dot(q.w, ray.direction);
+  if (denominator == T(0)) return false;
+  const T t = dot(q.w, q.corner - ray.origin) / denominator;
+  if (!(t > t_min && t < t_max)) return false;
+  const Vec3<T> planar = ray.at(t) - q.corner;
+  const T a = dot(q.w, cross(planar, q.v));
+  const T b = dot(q.w, cross(q.u, planar));
+  if (!(a >= T(0) && a <= T(1) && b >= T(0) && b <= T(1))) return false;
+  hit.t = t;
+  hit.b1 = a;
+  hit.b2 = b;
+  return true;
+}
+
+// Closest intersection with a purely geometric primitive. Media are not geometric (they never nest), so a
+// medium here never intersects.
+template <class T>
+PT_HD inline bool intersect_geometry(const Shape<T>& shape, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  struct Intersect {
+    const Ray<T>& ray;
+    T t_min, t_max;
+    Hit<T>& hit;
+    PT_HD bool operator()(const Sphere<T>& s) const { return intersect_sphere(s.center, s.radius, ray, t_min, t_max, hit); }
+    PT_HD bool operator()(const MovingSphere<T>& s) const {
+      return intersect_sphere(moving_sphere_center(s, ray.time), s.radius, ray, t_min, t_max, hit);
+    }
+    PT_HD bool operator()(const Triangle<T>& tri) const { return intersect_triangle(tri, ray, t_min, t_max, hit); }
+    PT_HD bool operator()(const Quad<T>& q) const { return intersect_quad(q, ray, t_min, t_max, hit); }
+    PT_HD bool operator()(const ConstantMedium<T>&) const { return false; }
+  };
+  return visit(Intersect{ray, t_min, t_max, hit}, shape);
+}
+
+template <class T>
+PT_HD inline bool intersect_boundary(const ConstantMedium<T>& medium, const Primitive<T>* boundaries, const Ray<T>& ray, T t_min,
+                                     T t_max, T& t) {
+  Hit<T> hit{};
+  bool found = false;
+  for (u32 i = 0; i < medium.boundary_count; ++i)
+    if (intersect_geometry(boundaries[medium.first_boundary + i].shape, ray, t_min, t_max, hit)) {
+      found = true;
+      t_max = hit.t;
+    }
+  t = t_max;
+  return found;
+}
+
+// A ray crossing a medium scatters inside it after an exponentially distributed free flight.
+template <class T>
+PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitive_index, const IntersectContext<T>& context,
+                                   const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  T entry, exit;
+  if (!intersect_boundary(medium, context.boundaries, ray, -largest<T>(), largest<T>(), entry)) return false;
+  if (!intersect_boundary(medium, context.boundaries, ray, entry + constant<T>(1e-4), largest<T>(), exit)) return false;
+  entry = max(entry, t_min);
+  exit = min(exit, t_max);
+  if (!(entry < exit)) return false;
+  entry = max(entry, T(0));
+  const T u = context.random->template uniform<T>(context.bounce, kDimMediumBase + primitive_index);
+  const T distance = medium.neg_inv_density * log(T(1) - u);  // 1 - u lies in (0, 1]: the logarithm is finite
+  if (distance > exit - entry) return false;
+  hit.t = entry + distance;
+  hit.b1 = T(0);
+  hit.b2 = T(0);
+  return true;
+}
+
+template <class T>
+PT_HD inline bool intersect_primitive(const Primitive<T>& primitive, u32 index, const IntersectContext<T>& context,
+                                      const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  if (const auto* medium = std::get_if<ConstantMedium<T>>(&primitive.shape))
+    return intersect_medium(*medium, index, context, ray, t_min, t_max, hit);
+  return intersect_geometry(primitive.shape, ray, t_min, t_max, hit);
+}
+
+// Sphere texture coordinates from the outward unit normal.
+template <class T>
+PT_HD inline void sphere_uv(const Vec3<T>& n, T& u, T& v) {
+  u = T(1) - (atan2(n.z, n.x) + pi<T>()) / (constant<T>(2) * pi<T>());
+  v = (asin(clamp(n.y, T(-1), T(1))) + pi<T>() / constant<T>(2)) / pi<T>();
+}
+
+template <class T>
+PT_HD inline void set_face_normal(SurfacePoint<T>& at, const Ray<T>& ray, const Vec3<T>& outward) {
+  at.front_face = dot(ray.direction, outward) < T(0);
+  at.normal = at.front_face ? outward : -outward;
+}
+
+// Full description of the closest hit.
+template <class T>
+PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const TriangleAttributes<T>* triangle_attributes,
+                                          const Ray<T>& ray, const Hit<T>& hit) {
+  struct Describe {
+    const TriangleAttributes<T>* attributes;
+    const Ray<T>& ray;
+    const Hit<T>& hit;
+    SurfacePoint<T>& at;
+
+    PT_HD void sphere(const Vec3<T>& center, T radius) const {
+      const Vec3<T> outward = (at.p - center) / radius;
+      set_face_normal(at, ray, outward);
+      sphere_uv(outward, at.u, at.v);
+    }
+    PT_HD void operator()(const Sphere<T>& s) const { sphere(s.center, s.radius); }
+    PT_HD void operator()(const MovingSphere<T>& s) const { sphere(moving_sphere_center(s, ray.time), s.radius); }
+    PT_HD void operator()(const Triangle<T>& tri) const {
+      const Vec3<T> geometric = normalize(cross(tri.edge1, tri.edge2));
+      at.front_face = dot(ray.direction, geometric) < T(0);
+      const T b0 = T(1) - hit.b1 - hit.b2;
+      Vec3<T> shading = geometric;
+      at.u = hit.b1;
+      at.v = hit.b2;
+      if (tri.attributes >= 0) {
+        const TriangleAttributes<T>& a = attributes[tri.attributes];
+        if (a.has_normals) {
+          const Vec3<T> interpolated = b0 * a.normal[0] + hit.b1 * a.normal[1] + hit.b2 * a.normal[2];
+          const T len2 = length_squared(interpolated);
+          if (len2 > T(0)) shading = interpolated / sqrt(len2);
+          // Keep the shading normal on the geometric side so the normal still tells front from back.
+          if (dot(shading, geometric) < T(0)) shading = -shading;
+        }
+        if (a.has_uvs) {
+          at.u = b0 * a.u[0] + hit.b1 * a.u[1] + hit.b2 * a.u[2];
+          at.v = b0 * a.v[0] + hit.b1 * a.v[1] + hit.b2 * a.v[2];
+        }
+      }
+      at.normal = at.front_face ? shading : -shading;
+    }
+    PT_HD void operator()(const Quad<T>& q) const {
+      set_face_normal(at, ray, normalize(q.w));
+      at.u = hit.b1;
+      at.v = hit.b2;
+    }
+    PT_HD void operator()(const ConstantMedium<T>&) const {
+      // Scattering inside a medium has no surface: the phase function ignores normal and texture coordinates.
+      at.normal = Vec3<T>{T(1), T(0), T(0)};
+      at.front_face = true;
+      at.u = T(0);
+      at.v = T(0);
+    }
+  };
+  SurfacePoint<T> at{};
+  at.p = ray.at(hit.t);
+  at.material = primitive.material;
+  visit(Describe{triangle_attributes, ray, hit, at}, primitive.shape);
+  return at;
+}
+
+}  // namespace pt

@@ -1,0 +1,507 @@
+// Scene files: JSON text -> SceneDescription. Every value is checked where it is read, and the first problem
+// becomes an InputError naming the file, the line and column, and the JSON path of the offending value.
+#include "scene/scene_loader.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "image/image_io.hpp"
+#include "scene/json_positions.hpp"
+
+namespace pt {
+
+namespace {
+
+using Json = nlohmann::json;
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+const char* type_name(const Json& j) {
+  switch (j.type()) {
+    case Json::value_t::null: return "null";
+    case Json::value_t::boolean: return "a boolean";
+    case Json::value_t::number_integer:
+    case Json::value_t::number_unsigned:
+    case Json::value_t::number_float: return "a number";
+    case Json::value_t::string: return "a string";
+    case Json::value_t::array: return "an array";
+    case Json::value_t::object: return "an object";
+    default: return "an unsupported value";
+  }
+}
+
+// Shared by all nodes of one file: where it came from and where each value sits in it.
+struct Document {
+  std::string source;
+  const JsonPositions* positions;
+};
+
+// A JSON value together with its path, so that every check can say where it failed.
+class Node {
+ public:
+  Node(const Json& value, std::string pointer, const Document& document) : value_(value), pointer_(std::move(pointer)), document_(document) {}
+
+  [[noreturn]] void fail(const std::string& message) const {
+    const TextPosition at = document_.positions->find(pointer_);
+    const std::string place = at.line ? fmt::format("{}:{}:{}", document_.source, at.line, at.column) : document_.source;
+    throw InputError(fmt::format("{}: {}: {}", place, pointer_.empty() ? "(top level)" : pointer_, message));
+  }
+
+  const Json& json() const { return value_; }
+  const std::string& pointer() const { return pointer_; }
+
+  void expect_object() const {
+    if (!value_.is_object()) fail(fmt::format("expected an object, found {}", type_name(value_)));
+  }
+
+  // Rejects keys outside `allowed`, suggesting the closest allowed one for a misspelling.
+  void allow_keys(std::initializer_list<const char*> allowed) const {
+    expect_object();
+    for (const auto& item : value_.items()) {
+      const std::string& key = item.key();
+      if (std::any_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; })) continue;
+      std::string best;
+      std::size_t best_distance = 3;
+      for (const char* a : allowed) {
+        const std::size_t d = edit_distance(key, a);
+        if (d < best_distance) {
+          best_distance = d;
+          best = a;
+        }
+      }
+      child(key).fail(best.empty() ? fmt::format("unknown key '{}'", key) : fmt::format("unknown key '{}' (did you mean '{}'?)", key, best));
+    }
+  }
+
+  bool has(const char* key) const { return value_.is_object() && value_.contains(key); }
+
+  Node child(const std::string& key) const { return Node(value_.at(key), pointer_ + "/" + key, document_); }
+
+  Node at(const char* key) const {
+    expect_object();
+    if (!value_.contains(key)) fail(fmt::format("missing required key '{}'", key));
+    return child(key);
+  }
+
+  Node element(std::size_t i) const { return Node(value_.at(i), pointer_ + "/" + std::to_string(i), document_); }
+
+  std::size_t array_size(std::size_t expected_min, std::size_t expected_max) const {
+    if (!value_.is_array()) fail(fmt::format("expected an array, found {}", type_name(value_)));
+    const std::size_t n = value_.size();
+    if (n < expected_min || n > expected_max) {
+      if (expected_min == expected_max) fail(fmt::format("expected {} elements, found {}", expected_min, n));
+      fail(fmt::format("expected between {} and {} elements, found {}", expected_min, expected_max, n));
+    }
+    return n;
+  }
+
+  double number() const {
+    if (!value_.is_number()) fail(fmt::format("expected a number, found {}", type_name(value_)));
+    const double v = value_.get<double>();
+    if (!std::isfinite(v)) fail("expected a finite number");
+    return v;
+  }
+  double number_in(double lo, double hi) const {
+    const double v = number();
+    if (v < lo || v > hi) fail(fmt::format("{} is outside the allowed range [{}, {}]", v, lo, hi));
+    return v;
+  }
+  double positive() const {
+    const double v = number();
+    if (!(v > 0)) fail(fmt::format("must be positive, found {}", v));
+    return v;
+  }
+  u32 integer(u64 lo, u64 hi) const {
+    if (!value_.is_number_integer() && !value_.is_number_unsigned()) {
+      if (value_.is_number_float()) fail("expected an integer, found a fractional number");
+      fail(fmt::format("expected an integer, found {}", type_name(value_)));
+    }
+    if (value_.is_number_integer() && value_.get<std::int64_t>() < 0 && lo == 0) fail(fmt::format("must not be negative, found {}", value_.get<std::int64_t>()));
+    const std::int64_t v = value_.get<std::int64_t>();
+    if (v < static_cast<std::int64_t>(lo) || static_cast<u64>(v) > hi) fail(fmt::format("{} is outside the allowed range [{}, {}]", v, lo, hi));
+    return static_cast<u32>(v);
+  }
+  std::string string() const {
+    if (!value_.is_string()) fail(fmt::format("expected a string, found {}", type_name(value_)));
+    return value_.get<std::string>();
+  }
+  Vec3d vec3() const {
+    array_size(3, 3);
+    return {element(0).number(), element(1).number(), element(2).number()};
+  }
+  Vec3d color() const {
+    const Vec3d c = vec3();
+    if (c.x < 0 || c.y < 0 || c.z < 0) fail("colour components must not be negative");
+    return c;
+  }
+  Vec3d nonzero_vec3() const {
+    const Vec3d v = vec3();
+    if (length_squared(v) == 0) fail("must not be the zero vector");
+    return v;
+  }
+
+ private:
+  const Json& value_;
+  std::string pointer_;
+  const Document& document_;
+};
+
+// Builds the description while keeping name tables for textures and materials.
+class SceneReader {
+ public:
+  SceneReader(const Document& document, std::filesystem::path base_folder, SceneDescription& scene)
+      : document_(document), base_folder_(std::move(base_folder)), scene_(scene) {}
+
+  void read(const Node& root) {
+    root.allow_keys({"render", "camera", "background", "textures", "materials", "objects"});
+    if (root.has("render")) read_render(root.child("render"));
+    read_camera(root.at("camera"));
+    if (root.has("background")) read_background(root.child("background"));
+    if (root.has("textures")) {
+      const Node textures = root.child("textures");
+      textures.expect_object();
+      for (const auto& item : textures.json().items()) texture_names_[item.key()] = read_texture(textures.child(item.key()));
+    }
+    if (root.has("materials")) {
+      const Node materials = root.child("materials");
+      materials.expect_object();
+      for (const auto& item : materials.json().items()) material_names_[item.key()] = read_material(materials.child(item.key()));
+    }
+    const Node objects = root.at("objects");
+    const std::size_t count = objects.array_size(1, 1u << 24);
+    for (std::size_t i = 0; i < count; ++i) read_object(objects.element(i));
+  }
+
+ private:
+  void read_render(const Node& n) {
+    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "t_min"});
+    RenderSettings& r = scene_.render;
+    if (n.has("width")) r.width = n.child("width").integer(1, kMaxImageSide);
+    if (n.has("height")) r.height = n.child("height").integer(1, kMaxImageSide);
+    if (static_cast<u64>(r.width) * r.height > kMaxImagePixels) n.fail(fmt::format("{}x{} pixels is too large", r.width, r.height));
+    if (n.has("samples_per_pixel")) r.samples_per_pixel = n.child("samples_per_pixel").integer(1, kMaxSamplesPerPixel);
+    if (n.has("max_depth")) r.max_depth = n.child("max_depth").integer(1, kMaxDepth);
+    if (n.has("seed")) r.seed = n.child("seed").integer(0, 0xffffffffu);
+    if (n.has("russian_roulette_depth")) r.roulette_depth = n.child("russian_roulette_depth").integer(0, kMaxDepth);
+    if (n.has("t_min")) r.t_min = n.child("t_min").number_in(0, 1e3);
+  }
+
+  void read_camera(const Node& n) {
+    n.allow_keys({"look_from", "look_at", "up", "vertical_fov", "aperture", "focus_distance", "shutter"});
+    CameraSettings& c = scene_.camera;
+    c.look_from = n.at("look_from").vec3();
+    c.look_at = n.at("look_at").vec3();
+    if (length_squared(c.look_at - c.look_from) == 0) n.child("look_at").fail("look_at must differ from look_from");
+    if (n.has("up")) c.up = n.child("up").nonzero_vec3();
+    if (length_squared(cross(c.up, c.look_at - c.look_from)) == 0) n.fail("the up vector is parallel to the view direction");
+    const Node fov = n.at("vertical_fov");
+    c.vertical_fov = fov.number();
+    if (!(c.vertical_fov > 0 && c.vertical_fov < 180)) fov.fail("vertical_fov must lie strictly between 0 and 180 degrees");
+    if (n.has("aperture")) c.aperture = n.child("aperture").number_in(0, 1e6);
+    c.focus_distance = n.has("focus_distance") ? n.child("focus_distance").positive() : length(c.look_at - c.look_from);
+    if (n.has("shutter")) {
+      const Node s = n.child("shutter");
+      s.array_size(2, 2);
+      c.shutter_open = s.element(0).number();
+      c.shutter_close = s.element(1).number();
+      if (c.shutter_close < c.shutter_open) s.fail("the shutter closes before it opens");
+    }
+  }
+
+  void read_background(const Node& n) {
+    const std::string type = n.at("type").string();
+    if (type == "sky") {
+      n.allow_keys({"type", "horizon", "zenith"});
+      if (n.has("horizon")) scene_.background.horizon = n.child("horizon").color();
+      if (n.has("zenith")) scene_.background.zenith = n.child("zenith").color();
+    } else if (type == "constant") {
+      n.allow_keys({"type", "color"});
+      const Vec3d c = n.at("color").color();
+      scene_.background = {c, c};
+    } else {
+      n.child("type").fail(fmt::format("unknown background type '{}' (expected 'sky' or 'constant')", type));
+    }
+  }
+
+  u32 add_texture(const Texture<double>& t) {
+    scene_.textures.push_back(t);
+    return static_cast<u32>(scene_.textures.size() - 1);
+  }
+
+  u32 read_texture(const Node& n) {
+    const std::string type = n.at("type").string();
+    if (type == "solid") {
+      n.allow_keys({"type", "color"});
+      return add_texture(SolidTexture<double>{n.at("color").color()});
+    }
+    if (type == "checker") {
+      n.allow_keys({"type", "odd", "even", "frequency"});
+      const double f = n.has("frequency") ? n.child("frequency").positive() : 10.0;
+      return add_texture(CheckerTexture<double>{n.at("odd").color(), n.at("even").color(), f});
+    }
+    if (type == "uv_checker") {
+      n.allow_keys({"type", "odd", "even", "columns", "rows"});
+      const double columns = n.has("columns") ? n.child("columns").integer(1, 1u << 20) : 8;
+      const double rows = n.has("rows") ? n.child("rows").integer(1, 1u << 20) : 8;
+      return add_texture(UvCheckerTexture<double>{n.at("odd").color(), n.at("even").color(), columns, rows});
+    }
+    if (type == "image") {
+      n.allow_keys({"type", "file", "repeat"});
+      const Node file = n.at("file");
+      const std::string name = file.string();
+      if (name.empty()) file.fail("the image file name is empty");
+      const double repeat = n.has("repeat") ? n.child("repeat").positive() : 1.0;
+      const ImageRef image = load_image(file, name);
+      return add_texture(ImageTexture<double>{image.width, image.height, image.offset, repeat});
+    }
+    if (type == "noise") {
+      n.allow_keys({"type", "kind", "scale", "turbulence_depth"});
+      NoiseKind kind = NoiseKind::kPerlin;
+      if (n.has("kind")) {
+        const std::string k = n.child("kind").string();
+        if (k == "perlin") kind = NoiseKind::kPerlin;
+        else if (k == "turbulence") kind = NoiseKind::kTurbulence;
+        else if (k == "marble") kind = NoiseKind::kMarble;
+        else n.child("kind").fail(fmt::format("unknown noise kind '{}' (expected 'perlin', 'turbulence' or 'marble')", k));
+      }
+      const double scale = n.has("scale") ? n.child("scale").positive() : 1.0;
+      const u32 depth = n.has("turbulence_depth") ? n.child("turbulence_depth").integer(1, 16) : 7;
+      return add_texture(NoiseTexture<double>{scale, kind, depth});
+    }
+    n.child("type").fail(fmt::format("unknown texture type '{}' (expected solid, checker, uv_checker, image or noise)", type));
+  }
+
+  struct ImageRef {
+    u32 width, height, offset;
+  };
+
+  ImageRef load_image(const Node& where, const std::string& name) {
+    const std::filesystem::path path = base_folder_ / name;
+    const std::string key = path.lexically_normal().string();
+    if (const auto it = images_.find(key); it != images_.end()) return it->second;
+    LinearImage image;
+    try {
+      image = read_texture_image(path);
+    } catch (const InputError& e) {
+      where.fail(e.what());
+    }
+    if (scene_.texels.size() / 3 + static_cast<u64>(image.width) * image.height > 0xffffffffull) where.fail("the scene's images are too large in total");
+    const ImageRef ref{image.width, image.height, static_cast<u32>(scene_.texels.size() / 3)};
+    scene_.texels.insert(scene_.texels.end(), image.rgb.begin(), image.rgb.end());
+    images_.emplace(key, ref);
+    return ref;
+  }
+
+  // A texture given by name, inline object, or (with `color_key`) a plain colour.
+  u32 read_texture_reference(const Node& n) {
+    if (n.json().is_string()) {
+      const std::string name = n.string();
+      const auto it = texture_names_.find(name);
+      if (it == texture_names_.end()) n.fail(fmt::format("unknown texture '{}'", name));
+      return it->second;
+    }
+    if (n.json().is_object()) return read_texture(n);
+    n.fail(fmt::format("expected a texture name or a texture object, found {}", type_name(n.json())));
+  }
+
+  u32 read_colour_or_texture(const Node& n, const char* color_key) {
+    if (n.has(color_key) && n.has("texture")) n.fail(fmt::format("give either '{}' or 'texture', not both", color_key));
+    if (n.has("texture")) return read_texture_reference(n.child("texture"));
+    return add_texture(SolidTexture<double>{n.at(color_key).color()});
+  }
+
+  u32 add_material(const Material<double>& m) {
+    scene_.materials.push_back(m);
+    return static_cast<u32>(scene_.materials.size() - 1);
+  }
+
+  u32 read_material(const Node& n) {
+    const std::string type = n.at("type").string();
+    if (type == "lambertian") {
+      n.allow_keys({"type", "albedo", "texture"});
+      return add_material(Lambertian<double>{read_colour_or_texture(n, "albedo")});
+    }
+    if (type == "metal") {
+      n.allow_keys({"type", "albedo", "fuzz"});
+      const double fuzz = n.has("fuzz") ? n.child("fuzz").number_in(0, 1) : 0.0;
+      return add_material(Metal<double>{n.at("albedo").color(), fuzz});
+    }
+    if (type == "dielectric") {
+      n.allow_keys({"type", "ior", "tint"});
+      const double ior = n.has("ior") ? n.child("ior").positive() : 1.5;
+      const Vec3d tint = n.has("tint") ? n.child("tint").color() : Vec3d{1, 1, 1};
+      return add_material(Dielectric<double>{ior, tint});
+    }
+    if (type == "diffuse_light") {
+      n.allow_keys({"type", "emission", "texture"});
+      return add_material(DiffuseLight<double>{read_colour_or_texture(n, "emission")});
+    }
+    if (type == "isotropic") {
+      n.allow_keys({"type", "albedo", "texture"});
+      return add_material(Isotropic<double>{read_colour_or_texture(n, "albedo")});
+    }
+    n.child("type").fail(fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light or isotropic)", type));
+  }
+
+  u32 read_material_reference(const Node& n) {
+    if (n.json().is_string()) {
+      const std::string name = n.string();
+      const auto it = material_names_.find(name);
+      if (it == material_names_.end()) n.fail(fmt::format("unknown material '{}'", name));
+      return it->second;
+    }
+    if (n.json().is_object()) return read_material(n);
+    n.fail(fmt::format("expected a material name or a material object, found {}", type_name(n.json())));
+  }
+
+  RigidTransform read_transform(const Node& n) {
+    n.allow_keys({"rotate", "translate"});
+    const Vec3d degrees = n.has("rotate") ? n.child("rotate").vec3() : Vec3d{};
+    const Vec3d translation = n.has("translate") ? n.child("translate").vec3() : Vec3d{};
+    return RigidTransform::from_euler_degrees(degrees, translation);
+  }
+
+  BoxSettings read_box(const Node& n) {
+    const Node lo = n.at("min"), hi = n.at("max");
+    const BoxSettings box{lo.vec3(), hi.vec3()};
+    if (!(box.min.x < box.max.x && box.min.y < box.max.y && box.min.z < box.max.z)) hi.fail("every component of max must exceed min");
+    return box;
+  }
+
+  Sphere<double> read_sphere(const Node& n) { return {n.at("center").vec3(), n.at("radius").positive()}; }
+
+  void read_object(const Node& n) {
+    const std::string type = n.at("type").string();
+    SceneObject object;
+    if (n.has("transform")) object.transform = read_transform(n.child("transform"));
+    const bool surface = type != "medium";
+    if (type == "sphere") {
+      n.allow_keys({"type", "center", "radius", "material", "transform"});
+      object.shape = read_sphere(n);
+    } else if (type == "moving_sphere") {
+      n.allow_keys({"type", "center0", "center1", "radius", "time0", "time1", "material", "transform"});
+      MovingSphereSettings s{n.at("center0").vec3(), n.at("center1").vec3(), n.at("radius").positive(), 0.0, 1.0};
+      if (n.has("time0")) s.time0 = n.child("time0").number();
+      if (n.has("time1")) s.time1 = n.child("time1").number();
+      if (!(s.time1 > s.time0)) n.child(n.has("time1") ? "time1" : "time0").fail("time1 must be later than time0");
+      object.shape = s;
+    } else if (type == "triangle") {
+      n.allow_keys({"type", "vertices", "normals", "uvs", "material", "transform"});
+      TriangleSettings t;
+      const Node vertices = n.at("vertices");
+      vertices.array_size(3, 3);
+      for (std::size_t i = 0; i < 3; ++i) t.vertices[i] = vertices.element(i).vec3();
+      if (length_squared(cross(t.vertices[1] - t.vertices[0], t.vertices[2] - t.vertices[0])) == 0) vertices.fail("the triangle is degenerate (zero area)");
+      if (n.has("normals")) {
+        const Node normals = n.child("normals");
+        normals.array_size(3, 3);
+        std::array<Vec3d, 3> list;
+        for (std::size_t i = 0; i < 3; ++i) list[i] = normals.element(i).nonzero_vec3();
+        t.normals = list;
+      }
+      if (n.has("uvs")) {
+        const Node uvs = n.child("uvs");
+        uvs.array_size(3, 3);
+        std::array<std::array<double, 2>, 3> list;
+        for (std::size_t i = 0; i < 3; ++i) {
+          const Node uv = uvs.element(i);
+          uv.array_size(2, 2);
+          list[i] = {uv.element(0).number(), uv.element(1).number()};
+        }
+        t.uvs = list;
+      }
+      object.shape = t;
+    } else if (type == "quad") {
+      n.allow_keys({"type", "corner", "u", "v", "material", "transform"});
+      const QuadSettings q{n.at("corner").vec3(), n.at("u").vec3(), n.at("v").vec3()};
+      if (length_squared(cross(q.u, q.v)) == 0) n.child("v").fail("u and v must span a parallelogram (they are parallel or zero)");
+      object.shape = q;
+    } else if (type == "box") {
+      n.allow_keys({"type", "min", "max", "material", "transform"});
+      object.shape = read_box(n);
+    } else if (type == "medium") {
+      n.allow_keys({"type", "boundary", "density", "material", "transform"});
+      const Node boundary = n.at("boundary");
+      const std::string boundary_type = boundary.at("type").string();
+      MediumSettings medium{Sphere<double>{}, RigidTransform{}, n.at("density").positive()};
+      if (boundary.has("transform")) medium.boundary_transform = read_transform(boundary.child("transform"));
+      if (boundary_type == "sphere") {
+        boundary.allow_keys({"type", "center", "radius", "transform"});
+        medium.boundary = read_sphere(boundary);
+      } else if (boundary_type == "box") {
+        boundary.allow_keys({"type", "min", "max", "transform"});
+        medium.boundary = read_box(boundary);
+      } else {
+        boundary.child("type").fail(fmt::format("a medium boundary must be a sphere or a box, not '{}'", boundary_type));
+      }
+      object.shape = medium;
+    } else {
+      n.child("type").fail(fmt::format("unknown object type '{}' (expected sphere, moving_sphere, triangle, quad, box or medium)", type));
+    }
+    const Node material = n.at("material");
+    object.material = read_material_reference(material);
+    const bool isotropic = std::holds_alternative<Isotropic<double>>(scene_.materials[object.material]);
+    if (!surface && !isotropic) material.fail("a medium's material must be isotropic");
+    if (surface && isotropic) material.fail("an isotropic material only belongs to a medium");
+    scene_.objects.push_back(object);
+  }
+
+  const Document& document_;
+  std::filesystem::path base_folder_;
+  SceneDescription& scene_;
+  std::map<std::string, u32> texture_names_, material_names_;
+  std::map<std::string, ImageRef> images_;
+};
+
+}  // namespace
+
+SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
+  Json root;
+  try {
+    root = Json::parse(text.begin(), text.end());
+  } catch (const Json::parse_error& e) {
+    const TextPosition at = JsonPositions::position_of_offset(text, e.byte > 0 ? e.byte - 1 : 0);
+    std::string what = e.what();
+    // nlohmann's message starts with its own error id and position: keep only the description.
+    if (const auto colon = what.find("error: "); colon != std::string::npos) what = what.substr(colon + 7);
+    throw InputError(fmt::format("{}:{}:{}: invalid JSON: {}", source, at.line, at.column, what));
+  }
+  const JsonPositions positions(text);
+  const Document document{source, &positions};
+  SceneDescription scene;
+  scene.source = source;
+  SceneReader reader(document, base_folder, scene);
+  reader.read(Node(root, "", document));
+  return scene;
+}
+
+SceneDescription load_scene_file(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{}: cannot open the scene file", file.string()));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
+  return parse_scene(text.str(), file.string(), file.parent_path());
+}
+
+}  // namespace pt

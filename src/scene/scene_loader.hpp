@@ -1,0 +1,24 @@
+// Reading a JSON scene file into a SceneDescription, with one clear error for any bad input.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "scene/scene.hpp"
+
+namespace pt {
+
+// Reads and checks a scene file; image paths are relative to the file's folder. Throws InputError.
+SceneDescription load_scene_file(const std::filesystem::path& file);
+
+// Parses scene text; `source` names it in messages and `base_folder` resolves image paths. Throws InputError.
+SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);
+
+// Limits that keep a scene renderable: larger values are rejected as absurd rather than attempted.
+inline constexpr u32 kMaxImageSide = 16384;
+inline constexpr u64 kMaxImagePixels = 64ull * 1024 * 1024;
+inline constexpr u32 kMaxSamplesPerPixel = 1u << 20;
+inline constexpr u32 kMaxDepth = 10000;
+
+}  // namespace pt
