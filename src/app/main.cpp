@@ -1,6 +1,7 @@
 // The command line: `pathtracer render SCENE -o IMAGE` with overrides, `pathtracer devices`, --help, --version.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
@@ -32,6 +33,7 @@ struct RenderOptions {
   int device = 0;
   std::string number_format = "float";
   bool quiet = false;
+  u32 runs = 5;  // bench only
 };
 
 std::string format_duration(double seconds) {
@@ -76,10 +78,7 @@ int render_with(const RenderOptions& options, const SceneDescription& scene, con
   return 0;
 }
 
-int run_render(const RenderOptions& options) {
-  // Fail on an unusable output name before spending time on the render.
-  image_format_for(options.output);
-  const SceneDescription scene = load_scene_file(options.scene);
+RenderSettings effective_settings(const RenderOptions& options, const SceneDescription& scene) {
   RenderSettings settings = scene.render;
   if (options.width) settings.width = *options.width;
   if (options.height) settings.height = *options.height;
@@ -88,8 +87,54 @@ int run_render(const RenderOptions& options) {
   if (options.seed) settings.seed = *options.seed;
   if (static_cast<u64>(settings.width) * settings.height > kMaxImagePixels)
     throw InputError(fmt::format("{}x{} pixels is too large (at most {} pixels)", settings.width, settings.height, kMaxImagePixels));
+  return settings;
+}
+
+int run_render(const RenderOptions& options) {
+  // Fail on an unusable output name before spending time on the render.
+  image_format_for(options.output);
+  const SceneDescription scene = load_scene_file(options.scene);
+  const RenderSettings settings = effective_settings(options, scene);
   if (options.number_format == "double") return render_with<double>(options, scene, settings);
   return render_with<float>(options, scene, settings);
+}
+
+// Renders the scene `runs` times after a short warm-up and reports the median: the benchmark of BENCHMARKS.md.
+template <class T>
+int bench_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
+  const FlatScene<T> flat = flatten_scene<T>(scene, settings);
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device);
+  {
+    // Warm-up: module loading, first-touch of memory, thread start-up stay out of the timed runs.
+    FlatScene<T> warm = flat;
+    warm.samples_per_pixel = 1;
+    render_scene(*backend, warm);
+  }
+  std::vector<double> seconds;
+  RenderStats stats;
+  for (u32 run = 0; run < options.runs; ++run) {
+    const RenderResult result = render_scene(*backend, flat);
+    stats = result.stats;
+    seconds.push_back(backend->device_seconds().value_or(result.stats.seconds));
+    fmt::print(stderr, "run {}: {:.4f} s\n", run + 1, seconds.back());
+  }
+  std::vector<double> sorted = seconds;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  fmt::print("scene {} | {}x{} {} spp depth {} | backend {} | {} | median of {}: {:.4f} s ({} timing) | {}samples/s | {}rays/s | "
+             "{:.2f} rays/sample | dropped {} | scene {:.1f} MB\n",
+             scene.source, settings.width, settings.height, settings.samples_per_pixel, settings.max_depth, backend->name(),
+             options.number_format, options.runs, median, backend->device_seconds() ? "device-event" : "wall-clock",
+             format_rate(stats.samples / median), format_rate(stats.rays / median), static_cast<double>(stats.rays) / stats.samples,
+             stats.dropped_samples, flat.bytes() / 1e6);
+  return 0;
+}
+
+int run_bench(const RenderOptions& options) {
+  const SceneDescription scene = load_scene_file(options.scene);
+  const RenderSettings settings = effective_settings(options, scene);
+  if (options.number_format == "double") return bench_with<double>(options, scene, settings);
+  return bench_with<float>(options, scene, settings);
 }
 
 }  // namespace
@@ -103,20 +148,24 @@ int main(int argc, char** argv) {
 
   RenderOptions options;
   CLI::App* render = app.add_subcommand("render", "Render a scene file to an image (PNG, PFM or OpenEXR, by extension)");
-  render->add_option("scene", options.scene, "Scene file (JSON); the seed's default scene if omitted");
+  CLI::App* bench = app.add_subcommand("bench", "Render a scene several times and print the median speed (nothing is written)");
+  for (CLI::App* command : {render, bench}) {
+    command->add_option("scene", options.scene, "Scene file (JSON); the seed's default scene if omitted");
+    command->add_option("--width", options.width, "Image width in pixels")->check(CLI::Range(1u, kMaxImageSide));
+    command->add_option("--height", options.height, "Image height in pixels")->check(CLI::Range(1u, kMaxImageSide));
+    command->add_option("--spp", options.spp, "Samples per pixel")->check(CLI::Range(1u, kMaxSamplesPerPixel));
+    command->add_option("--depth", options.depth, "Maximum path depth (bounces)")->check(CLI::Range(1u, kMaxDepth));
+    command->add_option("--seed", options.seed, "Random seed");
+    command->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
+    command->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
+    command->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
+    command->add_option("--number-format", options.number_format, "Scalar type of the kernels")
+        ->check(CLI::IsMember({"float", "double"}))
+        ->capture_default_str();
+  }
   render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
-  render->add_option("--width", options.width, "Image width in pixels")->check(CLI::Range(1u, kMaxImageSide));
-  render->add_option("--height", options.height, "Image height in pixels")->check(CLI::Range(1u, kMaxImageSide));
-  render->add_option("--spp", options.spp, "Samples per pixel")->check(CLI::Range(1u, kMaxSamplesPerPixel));
-  render->add_option("--depth", options.depth, "Maximum path depth (bounces)")->check(CLI::Range(1u, kMaxDepth));
-  render->add_option("--seed", options.seed, "Random seed");
-  render->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
-  render->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
-  render->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
-  render->add_option("--number-format", options.number_format, "Scalar type of the kernels")
-      ->check(CLI::IsMember({"float", "double"}))
-      ->capture_default_str();
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
+  bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
 
   CLI::App* devices = app.add_subcommand("devices", "List the devices of every backend built in");
 
@@ -130,6 +179,7 @@ int main(int argc, char** argv) {
       list_devices();
       return 0;
     }
+    if (*bench) return run_bench(options);
     return run_render(options);
   } catch (const InputError& e) {
     fmt::print(stderr, "pathtracer: error: {}\n", e.what());

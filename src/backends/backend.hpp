@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,10 @@ class RenderBackend {
 
   // Copies the film to the host (row-major, rows from the top).
   virtual void read_film(std::vector<FilmPixel>& pixels) = 0;
+
+  // Time the device spent rendering since the last upload, measured on the device (CUDA events) where the
+  // backend can; otherwise empty and callers use the wall clock.
+  virtual std::optional<double> device_seconds() const { return std::nullopt; }
 };
 
 // Errors of a backend (no device, out of memory, a failed launch): one clear line, never a crash.

@@ -22,7 +22,7 @@ PT_HD inline SampleResult<T> trace_sample(const SceneView<T>& scene, u32 x, u32 
   u32 bounce = 0;
   for (; bounce < params.max_depth; ++bounce) {
     const IntersectContext<T> context{scene.boundaries, &random, bounce};
-    Hit<T> hit;
+    Hit<T> hit{};
     if (!closest_hit(scene, ray, context, hit)) {
       radiance += throughput * background_radiance(scene.background, ray.direction);
       ++bounce;

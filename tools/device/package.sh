@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Builds the release preset (CUDA backend included) and gathers what a GPU machine without Debian's packages needs
+# to run it: the binaries and the non-system shared libraries they load, under out/device/.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cmake --preset release >/dev/null
+cmake --build build/release
+rm -rf out/device
+mkdir -p out/device/bin out/device/lib
+cp build/release/pathtracer out/device/bin/
+for t in build/release/tests/pathtracer_tests; do [ -x "$t" ] && cp "$t" out/device/bin/; done
+for binary in out/device/bin/*; do
+  ldd "$binary" | awk '/=> \// {print $3}' | grep -E 'libtbb|libfmt|libOpenEXR|libstb|libImath|libIlmThread|libIex|libgtest' | while read -r lib; do
+    cp -L "$lib" out/device/lib/
+  done
+done
+du -sh out/device
