@@ -64,7 +64,7 @@ struct FilmPixel {
 };
 
 // Adds samples [first_sample, first_sample + sample_count) of pixel (x, y). Samples are always added in
-// increasing order, so the sum does not depend on how a render is split into launches or threads.
+// increasing order, so the sum does not depend on how a render is split into passes, launches or threads.
 template <class T>
 PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 first_sample, u32 sample_count, FilmPixel& pixel) {
   FilmPixel sum = pixel;

@@ -15,8 +15,4 @@ using u32 = std::uint32_t;
 using u64 = std::uint64_t;
 using i32 = std::int32_t;
 
-// Marks a code path the caller guarantees is never taken (an index outside a variant, say):
-// in kernels there are no exceptions, so the compiler is simply told the path does not exist.
-[[noreturn]] PT_HD inline void unreachable() { __builtin_unreachable(); }
-
 }  // namespace pt

@@ -26,8 +26,9 @@ struct ScalarTraits<float> {
   // half the render time in the BVH slab test; the kernels keep NaN out of the values they compare.
   PT_HD static float min(float a, float b) { return a < b ? a : b; }
   PT_HD static float max(float a, float b) { return a > b ? a : b; }
-  // x - x is 0 for every finite x and NaN for infinities and NaN (exact without fast-math).
-  PT_HD static bool is_finite(float x) { return x - x == 0.0f; }
+  // Comparisons only: NaN fails both, infinities fail the range. (An arithmetic test such as x - x == 0 is not
+  // safe: after inlining, FMA contraction may evaluate the two x differently and reject finite values.)
+  PT_HD static bool is_finite(float x) { return x >= -FLT_MAX && x <= FLT_MAX; }
   PT_HD static float largest() { return FLT_MAX; }
   PT_HD static float from_unit_bits(u32 bits24) { return static_cast<float>(bits24) * 0x1p-24f; }
   // Relative size of the tolerance used where two surfaces meet (grazing tests, degenerate triangles).
@@ -46,7 +47,7 @@ struct ScalarTraits<double> {
   PT_HD static double abs(double x) { return ::fabs(x); }
   PT_HD static double min(double a, double b) { return a < b ? a : b; }
   PT_HD static double max(double a, double b) { return a > b ? a : b; }
-  PT_HD static bool is_finite(double x) { return x - x == 0.0; }
+  PT_HD static bool is_finite(double x) { return x >= -DBL_MAX && x <= DBL_MAX; }
   PT_HD static double largest() { return DBL_MAX; }
   PT_HD static double from_unit_bits(u32 bits24) { return static_cast<double>(bits24) * 0x1p-24; }
   PT_HD static double epsilon() { return 1e-12; }

@@ -24,11 +24,13 @@ PT_HD inline decltype(auto) visit(F&& f, V& v) {
   using Plain = std::remove_cv_t<V>;
   constexpr std::size_t count = std::variant_size_v<Plain>;
   static_assert(count >= 1 && count <= 8, "pt::visit handles variants of one to eight alternatives");
+  // Indices past the last alternative cannot occur; they share the last case so that the switch has no
+  // undefined path for the optimiser to exploit.
   switch (v.index()) {
-#define PT_VISIT_CASE(I)                                   \
-  case I:                                                  \
-    if constexpr (I < count) return detail::call_alternative<I>(f, v); \
-    else unreachable();
+#define PT_VISIT_CASE(I)                                                \
+  case I:                                                               \
+    if constexpr (I + 1 < count) return detail::call_alternative<I>(f, v); \
+    [[fallthrough]];
     PT_VISIT_CASE(0)
     PT_VISIT_CASE(1)
     PT_VISIT_CASE(2)
@@ -36,10 +38,9 @@ PT_HD inline decltype(auto) visit(F&& f, V& v) {
     PT_VISIT_CASE(4)
     PT_VISIT_CASE(5)
     PT_VISIT_CASE(6)
-    PT_VISIT_CASE(7)
 #undef PT_VISIT_CASE
     default:
-      unreachable();
+      return detail::call_alternative<count - 1>(f, v);
   }
 }
 

@@ -89,7 +89,7 @@ class CudaBackend final : public RenderBackend<T> {
     pixels_ = static_cast<size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(film_buffer_.allocate(pixels_ * sizeof(FilmPixel), "allocating the film"));
     check(cudaMemset(film_, 0, pixels_ * sizeof(FilmPixel)), "clearing the film");
-    samples_per_launch_ = 1;
+    samples_per_batch_ = 1;
     device_seconds_ = 0;
   }
 
@@ -98,7 +98,7 @@ class CudaBackend final : public RenderBackend<T> {
     const dim3 grid((view_.params.width + block.x - 1) / block.x, (view_.params.height + block.y - 1) / block.y);
     u32 done = 0;
     while (done < sample_count) {
-      const u32 count = std::min(samples_per_launch_, sample_count - done);
+      const u32 count = std::min(samples_per_batch_, sample_count - done);
       check(cudaEventRecord(start_), "recording an event");
       check(launch_render_samples(grid, block, view_, film_, first_sample + done, count), "launching the render kernel");
       check(cudaEventRecord(stop_), "recording an event");
@@ -107,10 +107,11 @@ class CudaBackend final : public RenderBackend<T> {
       check(cudaEventElapsedTime(&milliseconds, start_, stop_), "timing the render kernel");
       device_seconds_ += milliseconds * 1e-3;
       done += count;
-      // Keep each launch near kLaunchTargetMs: long enough to hide launch cost, short enough for any watchdog.
+      // Synchronise about every kBatchTargetMs: often enough for progress and error reports; each launch inside a
+      // batch is one sample, far below any display watchdog's limit.
       const double per_sample = milliseconds / count;
-      const double wanted = per_sample > 0 ? kLaunchTargetMs / per_sample : 2.0 * count;
-      samples_per_launch_ = static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
+      const double wanted = per_sample > 0 ? kBatchTargetMs / per_sample : 2.0 * count;
+      samples_per_batch_ = static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
     }
   }
 
@@ -123,7 +124,7 @@ class CudaBackend final : public RenderBackend<T> {
 
  private:
   static constexpr u32 kBlockWidth = 16, kBlockHeight = 8;
-  static constexpr double kLaunchTargetMs = 100.0;
+  static constexpr double kBatchTargetMs = 100.0;
 
   int device_;
   cudaDeviceProp properties_{};
@@ -132,7 +133,7 @@ class CudaBackend final : public RenderBackend<T> {
   SceneView<T> view_{};
   FilmPixel* film_ = nullptr;
   size_t pixels_ = 0;
-  u32 samples_per_launch_ = 1;
+  u32 samples_per_batch_ = 1;
   double device_seconds_ = 0;
 };
 

@@ -7,8 +7,8 @@
 
 namespace pt {
 
-// Adds samples [first_sample, first_sample + sample_count) of every pixel to the device film. Asynchronous;
-// returns the launch's error status.
+// Adds samples [first_sample, first_sample + sample_count) of every pixel to the device film, one launch per
+// sample. Asynchronous; returns the first launch error.
 template <class T>
 cudaError_t launch_render_samples(dim3 grid, dim3 block, const SceneView<T>& scene, FilmPixel* film, u32 first_sample, u32 sample_count);
 
