@@ -485,6 +485,11 @@ SceneDescription parse_scene(std::string_view text, const std::string& source, c
     // nlohmann's message starts with its own error id and position: keep only the description.
     if (const auto colon = what.find("error: "); colon != std::string::npos) what = what.substr(colon + 7);
     throw InputError(fmt::format("{}:{}:{}: invalid JSON: {}", source, at.line, at.column, what));
+  } catch (const Json::exception& e) {
+    // Other parser failures, such as a number too large for a double ("1e999").
+    std::string what = e.what();
+    if (const auto bracket = what.find("] "); bracket != std::string::npos) what = what.substr(bracket + 2);
+    throw InputError(fmt::format("{}: invalid JSON: {}", source, what));
   }
   const JsonPositions positions(text);
   const Document document{source, &positions};
