@@ -12,46 +12,78 @@ struct SampleResult {
   u32 rays;  // closest-hit queries made by this sample
 };
 
+// Everything a path carries from one bounce to the next. `bounce` counts the closest-hit queries made so far.
+template <class T>
+struct PathState {
+  Ray<T> ray;
+  Color<T> radiance;
+  Color<T> throughput;
+  u32 bounce;
+};
+
+template <class T>
+PT_HD inline SampleRandom path_random(const RenderParams<T>& params, u32 pixel, u32 sample) {
+  return SampleRandom::make(params.seed, pixel, sample);
+}
+
+// A new path: the camera ray of one sample of pixel (x, y).
+template <class T>
+PT_HD inline PathState<T> start_path(const SceneView<T>& scene, u32 x, u32 y, const SampleRandom& random) {
+  return PathState<T>{camera_ray(scene.camera, scene.params, x, y, random), Color<T>{}, Color<T>::splat(T(1)), 0};
+}
+
+// The path left the scene: it gathers the background, and ends.
+template <class T>
+PT_HD inline void path_escaped(const SceneView<T>& scene, PathState<T>& path) {
+  path.radiance += path.throughput * background_radiance(scene.background, path.ray.direction);
+  ++path.bounce;
+}
+
+// The path hit something: it gathers the emission there and scatters. Returns whether it goes on (with its new
+// ray); either way the bounce is counted.
+template <class T>
+PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random) {
+  const u32 bounce = path.bounce++;
+  const Primitive<T>& primitive = scene.primitives[hit.primitive];
+  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, path.ray, hit);
+  const Material<T>& material = scene.materials[at.material];
+  // Emission counts with the throughput of the path that reached it (the seed dropped this factor).
+  path.radiance += path.throughput * material_emitted(material, at, scene.textures, scene.texture_data);
+  Scatter<T> scatter;
+  const BounceRandom bounce_random{&random, bounce};
+  if (!material_scatter(material, path.ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) return false;
+  path.throughput *= scatter.attenuation;
+  path.ray = scatter.ray;
+  const RenderParams<T>& params = scene.params;
+  if (params.roulette_depth > 0 && bounce + 1 >= params.roulette_depth) {
+    // Continue with probability q and divide by q: unbiased, and dark paths stop early.
+    const T q = min(max_component(path.throughput), constant<T>(0.95));
+    if (!(bounce_random.template uniform<T>(kDimRoulette) < q)) return false;
+    path.throughput = path.throughput / q;
+  }
+  return true;
+}
+
+// The material class (variant index) a hit is shaded with: the wavefront integrator queues hits by it.
+template <class T>
+PT_HD inline u32 hit_material_class(const SceneView<T>& scene, const Hit<T>& hit) {
+  return static_cast<u32>(scene.materials[scene.primitives[hit.primitive].material].index());
+}
+
+// One camera sample of pixel (x, y), traced to the end in one go (the megakernel integrator).
 template <class T>
 PT_HD inline SampleResult<T> trace_sample(const SceneView<T>& scene, u32 x, u32 y, u32 sample) {
-  const RenderParams<T>& params = scene.params;
-  const SampleRandom random = SampleRandom::make(params.seed, y * params.width + x, sample);
-  Ray<T> ray = camera_ray(scene.camera, params, x, y, random);
-  Color<T> radiance{};
-  Color<T> throughput = Color<T>::splat(T(1));
-  u32 bounce = 0;
-  for (; bounce < params.max_depth; ++bounce) {
-    const IntersectContext<T> context{scene.boundaries, &random, bounce};
+  const SampleRandom random = path_random(scene.params, y * scene.params.width + x, sample);
+  PathState<T> path = start_path(scene, x, y, random);
+  while (path.bounce < scene.params.max_depth) {
     Hit<T> hit{};
-    if (!closest_hit(scene, ray, context, hit)) {
-      radiance += throughput * background_radiance(scene.background, ray.direction);
-      ++bounce;
+    if (!closest_hit(scene, path.ray, IntersectContext<T>{scene.boundaries, &random, path.bounce}, hit)) {
+      path_escaped(scene, path);
       break;
     }
-    const Primitive<T>& primitive = scene.primitives[hit.primitive];
-    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, ray, hit);
-    const Material<T>& material = scene.materials[at.material];
-    // Emission counts with the throughput of the path that reached it (the seed dropped this factor).
-    radiance += throughput * material_emitted(material, at, scene.textures, scene.texture_data);
-    Scatter<T> scatter;
-    const BounceRandom bounce_random{&random, bounce};
-    if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) {
-      ++bounce;
-      break;
-    }
-    throughput *= scatter.attenuation;
-    ray = scatter.ray;
-    if (params.roulette_depth > 0 && bounce + 1 >= params.roulette_depth) {
-      // Continue with probability q and divide by q: unbiased, and dark paths stop early.
-      const T q = min(max_component(throughput), constant<T>(0.95));
-      if (!(bounce_random.template uniform<T>(kDimRoulette) < q)) {
-        ++bounce;
-        break;
-      }
-      throughput = throughput / q;
-    }
+    if (!path_shade(scene, path, hit, random)) break;
   }
-  return SampleResult<T>{radiance, bounce};
+  return SampleResult<T>{path.radiance, path.bounce};
 }
 
 // One pixel of the film: the sum of its finite samples (in double, so long renders lose no precision),
@@ -63,20 +95,23 @@ struct FilmPixel {
   u32 rays;
 };
 
+// Adds one sample to a film pixel; a non-finite sample is left out (and so counted as dropped).
+template <class T>
+PT_HD inline void add_sample(FilmPixel& pixel, const SampleResult<T>& result) {
+  pixel.rays += result.rays;
+  if (!is_finite(result.radiance)) return;
+  pixel.r += static_cast<double>(result.radiance.x);
+  pixel.g += static_cast<double>(result.radiance.y);
+  pixel.b += static_cast<double>(result.radiance.z);
+  ++pixel.samples;
+}
+
 // Adds samples [first_sample, first_sample + sample_count) of pixel (x, y). Samples are always added in
 // increasing order, so the sum does not depend on how a render is split into passes, launches or threads.
 template <class T>
 PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 first_sample, u32 sample_count, FilmPixel& pixel) {
   FilmPixel sum = pixel;
-  for (u32 s = first_sample; s < first_sample + sample_count; ++s) {
-    const SampleResult<T> result = trace_sample(scene, x, y, s);
-    sum.rays += result.rays;
-    if (!is_finite(result.radiance)) continue;
-    sum.r += static_cast<double>(result.radiance.x);
-    sum.g += static_cast<double>(result.radiance.y);
-    sum.b += static_cast<double>(result.radiance.z);
-    ++sum.samples;
-  }
+  for (u32 s = first_sample; s < first_sample + sample_count; ++s) add_sample(sum, trace_sample(scene, x, y, s));
   pixel = sum;
 }
 
