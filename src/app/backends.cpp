@@ -26,13 +26,13 @@ std::string backend_choices() {
 }
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device) {
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator) {
 #if PT_HAVE_CUDA
-  if (name == "cuda") return make_cuda_backend<T>(device);
+  if (name == "cuda") return make_cuda_backend<T>(device, integrator);
   if (name == "auto") {
     if (cuda_device_count() > 0) {
       fmt::print(stderr, "backend auto: using cuda\n");
-      return make_cuda_backend<T>(device);
+      return make_cuda_backend<T>(device, integrator);
     }
     fmt::print(stderr, "backend auto: no usable GPU, using cpu\n");
   }
@@ -40,11 +40,11 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
   (void)device;
   if (name == "auto") fmt::print(stderr, "backend auto: built without GPU backends, using cpu\n");
 #endif
-  return make_cpu_backend<T>(threads);
+  return make_cpu_backend<T>(threads, integrator);
 }
 
-template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int);
-template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int);
+template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator);
+template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator);
 
 void list_devices() {
   fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());

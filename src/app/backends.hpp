@@ -14,7 +14,8 @@ std::string backend_choices();
 
 // "cpu", "cuda" or "auto" (the GPU when one is usable, else the CPU; says which on stderr).
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device);
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device,
+                                               Integrator integrator = Integrator::kMegakernel);
 
 // Prints every backend's devices to stdout.
 void list_devices();

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <numeric>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
@@ -32,9 +33,14 @@ struct RenderOptions {
   std::string backend = "cpu";
   int device = 0;
   std::string number_format = "float";
+  std::string integrator = "megakernel";
   bool quiet = false;
   u32 runs = 5;  // bench only
 };
+
+Integrator integrator_of(const RenderOptions& options) {
+  return options.integrator == "wavefront" ? Integrator::kWavefront : Integrator::kMegakernel;
+}
 
 std::string format_duration(double seconds) {
   if (seconds < 60) return fmt::format("{:.1f}s", seconds);
@@ -63,7 +69,7 @@ void draw_progress(const Progress& p) {
 template <class T>
 int render_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
   const FlatScene<T> flat = flatten_scene<T>(scene, settings);
-  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device);
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options));
   const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
   if (!options.quiet)
     fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
@@ -103,7 +109,7 @@ int run_render(const RenderOptions& options) {
 template <class T>
 int bench_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
   const FlatScene<T> flat = flatten_scene<T>(scene, settings);
-  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device);
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options));
   {
     // Warm-up: module loading, first-touch of memory, thread start-up stay out of the timed runs.
     FlatScene<T> warm = flat;
@@ -118,15 +124,18 @@ int bench_with(const RenderOptions& options, const SceneDescription& scene, cons
     seconds.push_back(backend->device_seconds().value_or(result.stats.seconds));
     fmt::print(stderr, "run {}: {:.4f} s\n", run + 1, seconds.back());
   }
+  std::string stages;
+  for (const auto& [stage, stage_seconds] : backend->stage_seconds())
+    stages += fmt::format("{}{} {:.1f}%", stages.empty() ? " | stages: " : ", ", stage, 100 * stage_seconds / seconds.back());
   std::vector<double> sorted = seconds;
   std::sort(sorted.begin(), sorted.end());
   const double median = sorted[sorted.size() / 2];
   fmt::print("scene {} | {}x{} {} spp depth {} | backend {} | {} | median of {}: {:.4f} s ({} timing) | {}samples/s | {}rays/s | "
-             "{:.2f} rays/sample | dropped {} | scene {:.1f} MB\n",
+             "{:.2f} rays/sample | dropped {} | scene {:.1f} MB{}\n",
              scene.source, settings.width, settings.height, settings.samples_per_pixel, settings.max_depth, backend->name(),
              options.number_format, options.runs, median, backend->device_seconds() ? "device-event" : "wall-clock",
              format_rate(stats.samples / median), format_rate(stats.rays / median), static_cast<double>(stats.rays) / stats.samples,
-             stats.dropped_samples, flat.bytes() / 1e6);
+             stats.dropped_samples, flat.bytes() / 1e6, stages);
   return 0;
 }
 
@@ -159,6 +168,9 @@ int main(int argc, char** argv) {
     command->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
     command->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
     command->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
+    command->add_option("--integrator", options.integrator, "megakernel (each path in one go) or wavefront (stages over queues)")
+        ->check(CLI::IsMember({"megakernel", "wavefront"}))
+        ->capture_default_str();
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels")
         ->check(CLI::IsMember({"float", "double"}))
         ->capture_default_str();

@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "flat/flat_scene.hpp"
@@ -32,7 +33,13 @@ class RenderBackend {
   // Time the device spent rendering since the last upload, measured on the device (CUDA events) where the
   // backend can; otherwise empty and callers use the wall clock.
   virtual std::optional<double> device_seconds() const { return std::nullopt; }
+
+  // Seconds spent in each stage of the wavefront integrator since the last upload (empty for the megakernel).
+  virtual std::vector<std::pair<std::string, double>> stage_seconds() const { return {}; }
 };
+
+// How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront).
+enum class Integrator { kMegakernel, kWavefront };
 
 // Errors of a backend (no device, out of memory, a failed launch): one clear line, never a crash.
 class BackendError : public std::runtime_error {

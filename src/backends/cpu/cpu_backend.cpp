@@ -1,33 +1,149 @@
-// The CPU backend: tiles of 8x8 pixels scheduled by oneTBB's work-stealing scheduler. Each pixel is rendered by
-// exactly one task, so the image is bitwise the same for any number of threads.
+// The CPU backend: the megakernel over tiles of 8x8 pixels scheduled by oneTBB's work-stealing scheduler (each
+// pixel rendered by exactly one task, so the image is bitwise the same for any number of threads), or the
+// wavefront stages as parallel loops over their queues.
 #include "backends/cpu/cpu_backend.hpp"
 
+#include <array>
+#include <chrono>
+
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "backends/wavefront_schedule.hpp"
+
 namespace pt {
 
 namespace {
 
+// Host storage of the wavefront's pools and queues.
+template <class T>
+struct HostPathPool {
+  std::vector<Vec3<T>> origin, direction;
+  std::vector<T> time;
+  std::vector<Color<T>> radiance, throughput;
+  std::vector<u32> bounce, item;
+  explicit HostPathPool(u32 n) : origin(n), direction(n), time(n), radiance(n), throughput(n), bounce(n), item(n) {}
+  PathPool<T> view() {
+    return PathPool<T>{origin.data(), direction.data(), time.data(), radiance.data(), throughput.data(), bounce.data(), item.data()};
+  }
+};
+
+template <class T>
+class CpuWavefrontStages final : public WavefrontStages {
+ public:
+  CpuWavefrontStages(tbb::task_arena& arena, const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch)
+      : arena_(arena), scene_(scene), film_(film), pools_{HostPathPool<T>(capacity), HostPathPool<T>(capacity)},
+        hit_t_(capacity), hit_b1_(capacity), hit_b2_(capacity), hit_primitive_(capacity), escaped_(capacity),
+        results_(static_cast<std::size_t>(scene.params.width) * scene.params.height * samples_per_batch) {
+    for (auto& q : material_queues_) q.resize(capacity);
+    view_.hit_t = hit_t_.data();
+    view_.hit_b1 = hit_b1_.data();
+    view_.hit_b2 = hit_b2_.data();
+    view_.hit_primitive = hit_primitive_.data();
+    view_.escaped = escaped_.data();
+    for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = material_queues_[m].data();
+    view_.counters = counters_.data();
+    view_.results = results_.data();
+    view_.pixels = scene.params.width * scene.params.height;
+    point_pools();
+  }
+
+  void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
+  void generate(u32 first_slot, u32 count, u32 first_item) override {
+    timed(0, count, [&](u32 i) { wavefront_generate(scene_, view_, first_slot + i, first_item + i); });
+  }
+  void intersect(u32 count) override { timed(1, count, [&](u32 i) { wavefront_intersect(scene_, view_, i); }); }
+  void escaped(u32 count) override { timed(2, count, [&](u32 i) { wavefront_escaped(scene_, view_, i); }); }
+  void shade(u32 material_class, u32 count) override {
+    timed(3, count, [&](u32 i) { wavefront_shade(scene_, view_, material_class, i); });
+  }
+  void accumulate(u32 sample_count) override {
+    timed(4, view_.pixels, [&](u32 pixel) { wavefront_accumulate(view_, film_, pixel, sample_count); });
+  }
+  std::array<u32, kWavefrontCounters> take_counters() override {
+    const std::array<u32, kWavefrontCounters> values = counters_;
+    counters_.fill(0);
+    return values;
+  }
+  void swap_pools() override {
+    current_ ^= 1;
+    point_pools();
+  }
+  const std::array<double, kWavefrontStageNames.size()>& seconds() const { return seconds_; }
+
+ private:
+  void point_pools() {
+    view_.current = pools_[current_].view();
+    view_.next = pools_[current_ ^ 1].view();
+  }
+  template <class F>
+  void timed(int stage, u32 count, const F& body) {
+    const auto start = std::chrono::steady_clock::now();
+    if (count > 0)
+      arena_.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<u32>(0, count, 256), [&](const tbb::blocked_range<u32>& r) {
+          for (u32 i = r.begin(); i < r.end(); ++i) body(i);
+        });
+      });
+    seconds_[stage] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  tbb::task_arena& arena_;
+  const SceneView<T>& scene_;
+  FilmPixel* film_;
+  HostPathPool<T> pools_[2];
+  int current_ = 0;
+  std::vector<T> hit_t_, hit_b1_, hit_b2_;
+  std::vector<u32> hit_primitive_, escaped_;
+  std::array<std::vector<u32>, kMaterialClasses> material_queues_;
+  std::array<u32, kWavefrontCounters> counters_{};
+  std::vector<SampleResult<T>> results_;
+  WavefrontView<T> view_{};
+  std::array<double, kWavefrontStageNames.size()> seconds_{};
+};
+
 template <class T>
 class CpuBackend final : public RenderBackend<T> {
  public:
-  explicit CpuBackend(unsigned threads)
+  CpuBackend(unsigned threads, Integrator integrator)
       : threads_(threads == 0 ? static_cast<unsigned>(tbb::this_task_arena::max_concurrency()) : threads),
+        integrator_(integrator),
         arena_(static_cast<int>(threads_)) {}
 
-  std::string name() const override { return fmt::format("cpu ({} thread{})", threads_, threads_ == 1 ? "" : "s"); }
+  std::string name() const override {
+    return fmt::format("cpu ({} thread{}, {})", threads_, threads_ == 1 ? "" : "s",
+                       integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel");
+  }
 
   void upload(const FlatScene<T>& scene) override {
     scene_ = scene;
+    view_ = scene_.view();
     film_.assign(static_cast<std::size_t>(scene.params.width) * scene.params.height, FilmPixel{});
+    wavefront_.reset();
+    if (integrator_ == Integrator::kWavefront) {
+      const u32 pixels = scene.params.width * scene.params.height;
+      samples_per_batch_ = wavefront_samples_per_batch(pixels, kCpuWavefrontPool);
+      wavefront_ = std::make_unique<CpuWavefrontStages<T>>(arena_, view_, film_.data(), kCpuWavefrontPool, samples_per_batch_);
+    }
+  }
+
+  std::vector<std::pair<std::string, double>> stage_seconds() const override {
+    std::vector<std::pair<std::string, double>> out;
+    if (wavefront_)
+      for (std::size_t i = 0; i < kWavefrontStageNames.size(); ++i) out.emplace_back(kWavefrontStageNames[i], wavefront_->seconds()[i]);
+    return out;
   }
 
   void render(u32 first_sample, u32 sample_count) override {
-    const SceneView<T> view = scene_.view();
+    if (wavefront_) {
+      run_wavefront(*wavefront_, scene_.params.width * scene_.params.height, kCpuWavefrontPool, samples_per_batch_, first_sample, sample_count);
+      return;
+    }
+    const SceneView<T> view = view_;
     const u32 width = scene_.params.width, height = scene_.params.height;
     FilmPixel* film = film_.data();
     arena_.execute([&] {
@@ -43,19 +159,23 @@ class CpuBackend final : public RenderBackend<T> {
 
  private:
   unsigned threads_;
+  Integrator integrator_;
   tbb::task_arena arena_;
   FlatScene<T> scene_;
+  SceneView<T> view_{};
   std::vector<FilmPixel> film_;
+  std::unique_ptr<CpuWavefrontStages<T>> wavefront_;
+  u32 samples_per_batch_ = 1;
 };
 
 }  // namespace
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_cpu_backend(unsigned threads) {
-  return std::make_unique<CpuBackend<T>>(threads);
+std::unique_ptr<RenderBackend<T>> make_cpu_backend(unsigned threads, Integrator integrator) {
+  return std::make_unique<CpuBackend<T>>(threads, integrator);
 }
 
-template std::unique_ptr<RenderBackend<float>> make_cpu_backend<float>(unsigned);
-template std::unique_ptr<RenderBackend<double>> make_cpu_backend<double>(unsigned);
+template std::unique_ptr<RenderBackend<float>> make_cpu_backend<float>(unsigned, Integrator);
+template std::unique_ptr<RenderBackend<double>> make_cpu_backend<double>(unsigned, Integrator);
 
 }  // namespace pt

@@ -1,5 +1,6 @@
 // The CUDA backend: a thin host layer that copies the flat scene into plain device allocations and launches the
-// shared kernel (accumulate_pixel, through cuda_kernels.cu) over the image, in launches of bounded length.
+// shared kernels (through cuda_kernels.cu): the megakernel over the image, one sample per launch, or the
+// wavefront stages over their queues.
 #include "backends/cuda/cuda_backend.hpp"
 
 #include <cuda_runtime.h>
@@ -10,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "backends/cuda/cuda_kernels.hpp"
+#include "backends/wavefront_schedule.hpp"
 
 namespace pt {
 
@@ -52,10 +54,120 @@ class DeviceBuffer {
   void* pointer_ = nullptr;
 };
 
+// Device storage of the wavefront's pools and queues, and the stages as launches timed with CUDA events.
+template <class T>
+class CudaWavefrontStages final : public WavefrontStages {
+ public:
+  CudaWavefrontStages(const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch) : scene_(scene), film_(film) {
+    for (int p = 0; p < 2; ++p) {
+      PathPool<T>& pool = pools_[p];
+      pool.origin = allocate<Vec3<T>>(capacity);
+      pool.direction = allocate<Vec3<T>>(capacity);
+      pool.time = allocate<T>(capacity);
+      pool.radiance = allocate<Color<T>>(capacity);
+      pool.throughput = allocate<Color<T>>(capacity);
+      pool.bounce = allocate<u32>(capacity);
+      pool.item = allocate<u32>(capacity);
+    }
+    view_.hit_t = allocate<T>(capacity);
+    view_.hit_b1 = allocate<T>(capacity);
+    view_.hit_b2 = allocate<T>(capacity);
+    view_.hit_primitive = allocate<u32>(capacity);
+    view_.escaped = allocate<u32>(capacity);
+    for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = allocate<u32>(capacity);
+    view_.counters = allocate<u32>(kWavefrontCounters);
+    check(cudaMemset(view_.counters, 0, kWavefrontCounters * sizeof(u32)), "clearing the wavefront queues");
+    view_.pixels = scene.params.width * scene.params.height;
+    view_.results = allocate<SampleResult<T>>(static_cast<size_t>(view_.pixels) * samples_per_batch);
+    point_pools();
+  }
+  ~CudaWavefrontStages() override {
+    for (void* p : allocations_) cudaFree(p);
+    for (Timing& t : timings_) {
+      cudaEventDestroy(t.start);
+      cudaEventDestroy(t.stop);
+    }
+  }
+
+  void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
+  void generate(u32 first_slot, u32 count, u32 first_item) override { run(WavefrontStage::kGenerate, 0, count, first_slot, first_item); }
+  void intersect(u32 count) override { run(WavefrontStage::kIntersect, 1, count, 0, 0); }
+  void escaped(u32 count) override { run(WavefrontStage::kEscaped, 2, count, 0, 0); }
+  void shade(u32 material_class, u32 count) override { run(WavefrontStage::kShade, 3, count, material_class, 0); }
+  void accumulate(u32 sample_count) override {
+    run(WavefrontStage::kAccumulate, 4, view_.pixels, sample_count, 0);
+    collect_timings();
+  }
+  std::array<u32, kWavefrontCounters> take_counters() override {
+    std::array<u32, kWavefrontCounters> values{};
+    check(cudaMemcpy(values.data(), view_.counters, sizeof(values), cudaMemcpyDeviceToHost), "reading the wavefront queues");
+    check(cudaMemset(view_.counters, 0, sizeof(values)), "clearing the wavefront queues");
+    collect_timings();
+    return values;
+  }
+  void swap_pools() override {
+    current_ ^= 1;
+    point_pools();
+  }
+  const std::array<double, kWavefrontStageNames.size()>& seconds() const { return seconds_; }
+
+ private:
+  template <class U>
+  U* allocate(size_t count) {
+    void* p = nullptr;
+    check(cudaMalloc(&p, std::max<size_t>(count * sizeof(U), 16)), "allocating the wavefront path pool");
+    allocations_.push_back(p);
+    return static_cast<U*>(p);
+  }
+  void point_pools() {
+    view_.current = pools_[current_];
+    view_.next = pools_[current_ ^ 1];
+  }
+  // Launches are queued without waiting; their events are read at the next synchronisation (take_counters).
+  void run(WavefrontStage stage, int timer, u32 count, u32 a, u32 b) {
+    if (count == 0) return;
+    if (pending_ == timings_.size()) {
+      Timing t{};
+      check(cudaEventCreate(&t.start), "creating an event");
+      check(cudaEventCreate(&t.stop), "creating an event");
+      timings_.push_back(t);
+    }
+    Timing& t = timings_[pending_++];
+    t.timer = timer;
+    check(cudaEventRecord(t.start), "recording an event");
+    check(launch_wavefront_stage(stage, count, scene_, view_, film_, a, b), "launching a wavefront stage");
+    check(cudaEventRecord(t.stop), "recording an event");
+  }
+  void collect_timings() {
+    for (size_t i = 0; i < pending_; ++i) {
+      check(cudaEventSynchronize(timings_[i].stop), "running a wavefront stage");
+      float milliseconds = 0;
+      check(cudaEventElapsedTime(&milliseconds, timings_[i].start, timings_[i].stop), "timing a wavefront stage");
+      seconds_[timings_[i].timer] += milliseconds * 1e-3;
+    }
+    pending_ = 0;
+  }
+
+  struct Timing {
+    cudaEvent_t start, stop;
+    int timer;
+  };
+
+  const SceneView<T>& scene_;
+  FilmPixel* film_;
+  PathPool<T> pools_[2]{};
+  int current_ = 0;
+  WavefrontView<T> view_{};
+  std::vector<void*> allocations_;
+  std::vector<Timing> timings_;
+  size_t pending_ = 0;
+  std::array<double, kWavefrontStageNames.size()> seconds_{};
+};
+
 template <class T>
 class CudaBackend final : public RenderBackend<T> {
  public:
-  explicit CudaBackend(int device) : device_(device) {
+  CudaBackend(int device, Integrator integrator) : device_(device), integrator_(integrator) {
     int count = 0;
     check(cudaGetDeviceCount(&count), "looking for GPUs");
     if (count == 0) throw BackendError("cuda: no GPU found");
@@ -70,7 +182,17 @@ class CudaBackend final : public RenderBackend<T> {
     cudaEventDestroy(stop_);
   }
 
-  std::string name() const override { return fmt::format("cuda (GPU {}: {}, {} SMs)", device_, properties_.name, properties_.multiProcessorCount); }
+  std::string name() const override {
+    return fmt::format("cuda (GPU {}: {}, {} SMs, {})", device_, properties_.name, properties_.multiProcessorCount,
+                       integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel");
+  }
+
+  std::vector<std::pair<std::string, double>> stage_seconds() const override {
+    std::vector<std::pair<std::string, double>> out;
+    if (wavefront_)
+      for (std::size_t i = 0; i < kWavefrontStageNames.size(); ++i) out.emplace_back(kWavefrontStageNames[i], wavefront_->seconds()[i]);
+    return out;
+  }
 
   void upload(const FlatScene<T>& scene) override {
     check(cudaSetDevice(device_), "selecting the GPU");
@@ -91,9 +213,21 @@ class CudaBackend final : public RenderBackend<T> {
     check(cudaMemset(film_, 0, pixels_ * sizeof(FilmPixel)), "clearing the film");
     samples_per_batch_ = 1;
     device_seconds_ = 0;
+    wavefront_.reset();
+    if (integrator_ == Integrator::kWavefront) {
+      const u32 pixels = scene.params.width * scene.params.height;
+      wavefront_batch_ = wavefront_samples_per_batch(pixels, kCudaWavefrontPool);
+      wavefront_ = std::make_unique<CudaWavefrontStages<T>>(view_, film_, kCudaWavefrontPool, wavefront_batch_);
+    }
   }
 
   void render(u32 first_sample, u32 sample_count) override {
+    if (wavefront_) {
+      run_wavefront(*wavefront_, view_.params.width * view_.params.height, kCudaWavefrontPool, wavefront_batch_, first_sample, sample_count);
+      device_seconds_ = 0;
+      for (double s : wavefront_->seconds()) device_seconds_ += s;
+      return;
+    }
     const dim3 block(kBlockWidth, kBlockHeight);
     const dim3 grid((view_.params.width + block.x - 1) / block.x, (view_.params.height + block.y - 1) / block.y);
     u32 done = 0;
@@ -127,6 +261,9 @@ class CudaBackend final : public RenderBackend<T> {
   static constexpr double kBatchTargetMs = 100.0;
 
   int device_;
+  Integrator integrator_;
+  std::unique_ptr<CudaWavefrontStages<T>> wavefront_;
+  u32 wavefront_batch_ = 1;
   cudaDeviceProp properties_{};
   cudaEvent_t start_ = nullptr, stop_ = nullptr;
   DeviceBuffer nodes_, primitives_, boundaries_, attributes_, materials_, textures_, texels_, gradients_, permutations_, film_buffer_;
@@ -140,12 +277,12 @@ class CudaBackend final : public RenderBackend<T> {
 }  // namespace
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_cuda_backend(int device) {
-  return std::make_unique<CudaBackend<T>>(device);
+std::unique_ptr<RenderBackend<T>> make_cuda_backend(int device, Integrator integrator) {
+  return std::make_unique<CudaBackend<T>>(device, integrator);
 }
 
-template std::unique_ptr<RenderBackend<float>> make_cuda_backend<float>(int);
-template std::unique_ptr<RenderBackend<double>> make_cuda_backend<double>(int);
+template std::unique_ptr<RenderBackend<float>> make_cuda_backend<float>(int, Integrator);
+template std::unique_ptr<RenderBackend<double>> make_cuda_backend<double>(int, Integrator);
 
 int cuda_device_count() {
   int count = 0;

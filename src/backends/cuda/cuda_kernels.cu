@@ -17,7 +17,57 @@ __global__ void render_sample(SceneView<T> scene, FilmPixel* film, u32 sample) {
   accumulate_pixel(scene, x, y, sample, 1, film[static_cast<size_t>(y) * scene.params.width + x]);
 }
 
+constexpr u32 kStageBlock = 128;
+
+template <class T>
+__global__ void wavefront_generate_kernel(SceneView<T> scene, WavefrontView<T> w, u32 count, u32 first_slot, u32 first_item) {
+  const u32 i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) wavefront_generate(scene, w, first_slot + i, first_item + i);
+}
+
+template <class T>
+__global__ void wavefront_intersect_kernel(SceneView<T> scene, WavefrontView<T> w, u32 count) {
+  const u32 i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) wavefront_intersect(scene, w, i);
+}
+
+template <class T>
+__global__ void wavefront_escaped_kernel(SceneView<T> scene, WavefrontView<T> w, u32 count) {
+  const u32 i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) wavefront_escaped(scene, w, i);
+}
+
+template <class T>
+__global__ void wavefront_shade_kernel(SceneView<T> scene, WavefrontView<T> w, u32 count, u32 material_class) {
+  const u32 i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) wavefront_shade(scene, w, material_class, i);
+}
+
+template <class T>
+__global__ void wavefront_accumulate_kernel(WavefrontView<T> w, FilmPixel* film, u32 count, u32 sample_count) {
+  const u32 i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) wavefront_accumulate(w, film, i, sample_count);
+}
+
 }  // namespace
+
+template <class T>
+cudaError_t launch_wavefront_stage(WavefrontStage stage, u32 count, const SceneView<T>& scene, const WavefrontView<T>& w,
+                                   FilmPixel* film, u32 a, u32 b) {
+  if (count == 0) return cudaSuccess;
+  const dim3 grid((count + kStageBlock - 1) / kStageBlock), block(kStageBlock);
+  switch (stage) {
+    case WavefrontStage::kGenerate: wavefront_generate_kernel<T><<<grid, block>>>(scene, w, count, a, b); break;
+    case WavefrontStage::kIntersect: wavefront_intersect_kernel<T><<<grid, block>>>(scene, w, count); break;
+    case WavefrontStage::kEscaped: wavefront_escaped_kernel<T><<<grid, block>>>(scene, w, count); break;
+    case WavefrontStage::kShade: wavefront_shade_kernel<T><<<grid, block>>>(scene, w, count, a); break;
+    case WavefrontStage::kAccumulate: wavefront_accumulate_kernel<T><<<grid, block>>>(w, film, count, a); break;
+  }
+  return cudaGetLastError();
+}
+
+template cudaError_t launch_wavefront_stage<float>(WavefrontStage, u32, const SceneView<float>&, const WavefrontView<float>&, FilmPixel*, u32, u32);
+template cudaError_t launch_wavefront_stage<double>(WavefrontStage, u32, const SceneView<double>&, const WavefrontView<double>&, FilmPixel*, u32, u32);
 
 template <class T>
 cudaError_t launch_render_samples(dim3 grid, dim3 block, const SceneView<T>& scene, FilmPixel* film, u32 first_sample, u32 sample_count) {
