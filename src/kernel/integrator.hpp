@@ -29,8 +29,9 @@ PT_HD inline SampleResult<T> trace_sample(const SceneView<T>& scene, u32 x, u32 
       break;
     }
     const Primitive<T>& primitive = scene.primitives[hit.primitive];
-    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, ray, hit);
-    const Material<T>& material = scene.materials[at.material];
+    const Material<T>& material = scene.materials[primitive.material];
+    const bool needs_uv = material_needs_uv(material, scene.textures);
+    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, ray, hit, needs_uv);
     // Emission counts with the throughput of the path that reached it (the seed dropped this factor).
     radiance += throughput * material_emitted(material, at, scene.textures, scene.texture_data);
     Scatter<T> scatter;
