@@ -32,6 +32,9 @@ class RenderBackend {
   // Time the device spent rendering since the last upload, measured on the device (CUDA events) where the
   // backend can; otherwise empty and callers use the wall clock.
   virtual std::optional<double> device_seconds() const { return std::nullopt; }
+
+  // Fixed-point saturation events since the last upload; 0 where the backend does not count them (GPUs).
+  virtual u64 saturations() const { return 0; }
 };
 
 // Errors of a backend (no device, out of memory, a failed launch): one clear line, never a crash.
