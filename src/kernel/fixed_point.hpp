@@ -213,8 +213,10 @@ template <class T> struct IsFixed : std::false_type {};
 template <int I, int F> struct IsFixed<Fixed<I, F>> : std::true_type {};
 template <class T> inline constexpr bool is_fixed_v = IsFixed<T>::value;
 
+#if !defined(__CUDA_ARCH__)
 // Saturation events counted on the calling host thread so far.
 inline std::uint64_t fixed_saturations_this_thread() { return fixed_detail::saturation_counter(); }
+#endif
 
 template <int I, int F>
 struct ScalarTraits<Fixed<I, F>> {
