@@ -57,6 +57,14 @@ template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::
   template std::unique_ptr<RenderBackend<Fixed<I, F>>> make_backend<Fixed<I, F>>(const std::string&, unsigned, int, Integrator);
 PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_BACKEND)
 
+bool gpu_available() {
+#if PT_HAVE_CUDA
+  return cuda_device_count() > 0;
+#else
+  return false;
+#endif
+}
+
 void list_devices() {
   fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());
 #if PT_HAVE_CUDA

@@ -36,13 +36,18 @@ struct RenderOptions {
   std::string backend = "cpu";
   int device = 0;
   std::string number_format = "float";
-  std::string integrator = "megakernel";
+  std::string integrator = "auto";
   bool quiet = false;
   u32 runs = 5;  // bench only
 };
 
+// "auto" picks each backend's faster integrator as measured in BENCHMARKS.md: the wavefront on GPUs (about 2x on
+// material-heavy scenes), the megakernel on the CPU (the wavefront's queues cost more there than they save).
 Integrator integrator_of(const RenderOptions& options) {
-  return options.integrator == "wavefront" ? Integrator::kWavefront : Integrator::kMegakernel;
+  if (options.integrator == "wavefront") return Integrator::kWavefront;
+  if (options.integrator == "megakernel") return Integrator::kMegakernel;
+  const bool gpu = options.backend == "cuda" || (options.backend == "auto" && gpu_available());
+  return gpu ? Integrator::kWavefront : Integrator::kMegakernel;
 }
 
 std::string format_duration(double seconds) {
@@ -172,8 +177,8 @@ int main(int argc, char** argv) {
     command->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
     command->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
     command->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
-    command->add_option("--integrator", options.integrator, "megakernel (each path in one go) or wavefront (stages over queues)")
-        ->check(CLI::IsMember({"megakernel", "wavefront"}))
+    command->add_option("--integrator", options.integrator, "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
+        ->check(CLI::IsMember({"auto", "megakernel", "wavefront"}))
         ->capture_default_str();
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")
         ->check(CLI::IsMember(number_format_names()))
