@@ -103,7 +103,7 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   if (options.depth) settings.max_depth = *options.depth;
   if (options.seed) settings.seed = *options.seed;
   if (static_cast<u64>(settings.width) * settings.height > kMaxImagePixels)
-    throw InputError(fmt::format("{}x{} pixels is too large (at most {} pixels)", settings.width, settings.height, kMaxImagePixels));
+    throw InputError(fmt::format("{}: {}x{} pixels is too large (at most {} pixels)", scene.source, settings.width, settings.height, kMaxImagePixels));
   return settings;
 }
 
@@ -163,6 +163,8 @@ int main(int argc, char** argv) {
   CLI::App app{"pathtracer: a physically based Monte Carlo path tracer for CPUs and GPUs"};
   app.set_version_flag("--version", std::string("pathtracer ") + PT_VERSION);
   app.require_subcommand(1);
+  // Command-line mistakes get the same one-line form as every other error.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) { return std::string("pathtracer: error: ") + e.what() + "\n"; });
 
   RenderOptions options;
   CLI::App* render = app.add_subcommand("render", "Render a scene file to an image (PNG, PFM or OpenEXR, by extension)");
