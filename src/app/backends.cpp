@@ -8,6 +8,9 @@
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif
+#if PT_HAVE_SYCL
+#include "backends/sycl/sycl_backend.hpp"
+#endif
 
 namespace pt {
 
@@ -15,6 +18,9 @@ std::vector<std::string> backend_names() {
   std::vector<std::string> names{"cpu", "auto"};
 #if PT_HAVE_CUDA
   names.push_back("cuda");
+#endif
+#if PT_HAVE_SYCL
+  names.push_back("sycl");
 #endif
   return names;
 }
@@ -26,7 +32,17 @@ std::string backend_choices() {
 }
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator) {
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator,
+                                               int sycl_device) {
+#if PT_HAVE_SYCL
+  if (name == "sycl") {
+    // The SYCL backend has the megakernel only; saying so beats silently rendering another way.
+    if (integrator == Integrator::kWavefront) throw BackendError("sycl: the wavefront integrator is not available on this backend");
+    return make_sycl_backend<T>(sycl_device);
+  }
+#else
+  (void)sycl_device;
+#endif
 #if PT_HAVE_CUDA
   if (name == "cuda") return make_cuda_backend<T>(device, integrator);
   if (name == "auto") {
@@ -43,8 +59,8 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
   return make_cpu_backend<T>(threads, integrator);
 }
 
-template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator);
-template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator);
+template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator, int);
+template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator, int);
 
 void list_devices() {
   fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());
@@ -52,6 +68,11 @@ void list_devices() {
   list_cuda_devices();
 #else
   fmt::print("cuda: not built\n");
+#endif
+#if PT_HAVE_SYCL
+  list_sycl_devices();
+#else
+  fmt::print("sycl: not built\n");
 #endif
 }
 
