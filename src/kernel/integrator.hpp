@@ -45,8 +45,9 @@ template <class T>
 PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random) {
   const u32 bounce = path.bounce++;
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
-  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, path.ray, hit);
-  const Material<T>& material = scene.materials[at.material];
+  const Material<T>& material = scene.materials[primitive.material];
+  const bool needs_uv = material_needs_uv(material, scene.textures);
+  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, path.ray, hit, needs_uv);
   // Emission counts with the throughput of the path that reached it (the seed dropped this factor).
   path.radiance += path.throughput * material_emitted(material, at, scene.textures, scene.texture_data);
   Scatter<T> scatter;

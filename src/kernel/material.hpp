@@ -98,6 +98,27 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
   return visit(Sample{in, at, textures, data, random, out}, material);
 }
 
+// Whether the texture reads the texture coordinates (u, v); the others depend on the point only.
+template <class T>
+PT_HD inline bool texture_needs_uv(const Texture<T>& texture) {
+  return std::holds_alternative<UvCheckerTexture<T>>(texture) || std::holds_alternative<ImageTexture<T>>(texture);
+}
+
+// Whether shading the material reads the hit's texture coordinates, so describe_hit may skip computing them
+// where they are costly (spheres: an atan2 and an asin per hit).
+template <class T>
+PT_HD inline bool material_needs_uv(const Material<T>& material, const Texture<T>* textures) {
+  struct NeedsUv {
+    const Texture<T>* textures;
+    PT_HD bool operator()(const Lambertian<T>& m) const { return texture_needs_uv(textures[m.texture]); }
+    PT_HD bool operator()(const Metal<T>&) const { return false; }
+    PT_HD bool operator()(const Dielectric<T>&) const { return false; }
+    PT_HD bool operator()(const DiffuseLight<T>& m) const { return texture_needs_uv(textures[m.texture]); }
+    PT_HD bool operator()(const Isotropic<T>& m) const { return texture_needs_uv(textures[m.texture]); }
+  };
+  return visit(NeedsUv{textures}, material);
+}
+
 // Radiance the surface emits towards the incoming ray.
 template <class T>
 PT_HD inline Color<T> material_emitted(const Material<T>& material, const SurfacePoint<T>& at, const Texture<T>* textures,

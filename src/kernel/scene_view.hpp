@@ -2,6 +2,8 @@
 // an accelerator), the camera, the background, and the closest-hit query over the BVH.
 #pragma once
 
+#include <cstddef>
+
 #include "kernel/shapes.hpp"
 
 namespace pt {
@@ -74,15 +76,34 @@ PT_HD inline Ray<T> camera_ray(const Camera<T>& camera, const RenderParams<T>& p
   return Ray<T>{origin, normalize(target - origin), time};
 }
 
+// A ray prepared for slab tests: reciprocal direction, origin times it, and for each axis the byte offset within a
+// BvhNode of the bound the ray meets first (lo where the direction is positive, hi where it is negative) and of the
+// one it meets last. Picking the planes once per ray saves the min/max pair per axis of every box test, and gives
+// the same entry and exit distances: with a fixed reciprocal the rounded plane distance is monotonic in the bound.
+template <class T>
+struct BoxRay {
+  Vec3<T> inv_direction;
+  Vec3<T> origin_times_inv;
+  u32 near_x, near_y, near_z;
+  u32 far_x, far_y, far_z;
+};
+
+template <class T>
+PT_HD inline T node_bound(const BvhNode<T>& node, u32 byte_offset) {
+  return *reinterpret_cast<const T*>(reinterpret_cast<const unsigned char*>(&node) + byte_offset);
+}
+
 // Slab test of a node's box against the ray, between t_min and the closest hit so far.
 template <class T>
-PT_HD inline bool ray_hits_box(const BvhNode<T>& node, const Vec3<T>& inv_direction, const Vec3<T>& origin_times_inv, T t_min,
-                               T t_max, T& t_entry) {
-  const T tx0 = node.lo.x * inv_direction.x - origin_times_inv.x, tx1 = node.hi.x * inv_direction.x - origin_times_inv.x;
-  const T ty0 = node.lo.y * inv_direction.y - origin_times_inv.y, ty1 = node.hi.y * inv_direction.y - origin_times_inv.y;
-  const T tz0 = node.lo.z * inv_direction.z - origin_times_inv.z, tz1 = node.hi.z * inv_direction.z - origin_times_inv.z;
-  const T near = max(max(min(tx0, tx1), min(ty0, ty1)), max(min(tz0, tz1), t_min));
-  const T far = min(min(max(tx0, tx1), max(ty0, ty1)), min(max(tz0, tz1), t_max));
+PT_HD inline bool ray_hits_box(const BvhNode<T>& node, const BoxRay<T>& r, T t_min, T t_max, T& t_entry) {
+  const T tx0 = node_bound(node, r.near_x) * r.inv_direction.x - r.origin_times_inv.x;
+  const T tx1 = node_bound(node, r.far_x) * r.inv_direction.x - r.origin_times_inv.x;
+  const T ty0 = node_bound(node, r.near_y) * r.inv_direction.y - r.origin_times_inv.y;
+  const T ty1 = node_bound(node, r.far_y) * r.inv_direction.y - r.origin_times_inv.y;
+  const T tz0 = node_bound(node, r.near_z) * r.inv_direction.z - r.origin_times_inv.z;
+  const T tz1 = node_bound(node, r.far_z) * r.inv_direction.z - r.origin_times_inv.z;
+  const T near = max(max(tx0, ty0), max(tz0, t_min));
+  const T far = min(min(tx1, ty1), min(tz1, t_max));
   t_entry = near;
   return near <= far;
 }
@@ -98,7 +119,18 @@ PT_HD inline T safe_reciprocal(T d) {
 template <class T>
 PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
   const Vec3<T> inv{safe_reciprocal(ray.direction.x), safe_reciprocal(ray.direction.y), safe_reciprocal(ray.direction.z)};
-  const Vec3<T> origin_times_inv = ray.origin * inv;
+  constexpr u32 lo_x = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, x), hi_x = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, x);
+  constexpr u32 lo_y = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, y), hi_y = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, y);
+  constexpr u32 lo_z = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, z), hi_z = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, z);
+  const bool neg_x = inv.x < T(0), neg_y = inv.y < T(0), neg_z = inv.z < T(0);
+  const BoxRay<T> box_ray{inv,
+                          ray.origin * inv,
+                          neg_x ? hi_x : lo_x,
+                          neg_y ? hi_y : lo_y,
+                          neg_z ? hi_z : lo_z,
+                          neg_x ? lo_x : hi_x,
+                          neg_y ? lo_y : hi_y,
+                          neg_z ? lo_z : hi_z};
   const T t_min = scene.params.t_min;
   T closest = largest<T>();
   bool found = false;
@@ -106,7 +138,7 @@ PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, cons
   u32 stack_size = 0;
   u32 node_index = 0;
   T entry;
-  if (!ray_hits_box(scene.nodes[0], inv, origin_times_inv, t_min, closest, entry)) return false;
+  if (!ray_hits_box(scene.nodes[0], box_ray, t_min, closest, entry)) return false;
   while (true) {
     const BvhNode<T>& node = scene.nodes[node_index];
     if (node.count > 0) {
@@ -122,8 +154,8 @@ PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, cons
     } else {
       u32 near_child = node_index + 1, far_child = node.left_first;
       T near_entry, far_entry;
-      const bool near_hit = ray_hits_box(scene.nodes[near_child], inv, origin_times_inv, t_min, closest, near_entry);
-      const bool far_hit = ray_hits_box(scene.nodes[far_child], inv, origin_times_inv, t_min, closest, far_entry);
+      const bool near_hit = ray_hits_box(scene.nodes[near_child], box_ray, t_min, closest, near_entry);
+      const bool far_hit = ray_hits_box(scene.nodes[far_child], box_ray, t_min, closest, far_entry);
       if (near_hit && far_hit) {
         if (far_entry < near_entry) {
           const u32 swap = near_child;

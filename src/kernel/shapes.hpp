@@ -192,20 +192,22 @@ PT_HD inline void set_face_normal(SurfacePoint<T>& at, const Ray<T>& ray, const 
   at.normal = at.front_face ? outward : -outward;
 }
 
-// Full description of the closest hit.
+// Full description of the closest hit. With needs_uv false the texture coordinates of spheres are left at 0
+// (the material's textures do not read them); those of triangles and quads cost nothing and are always set.
 template <class T>
 PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const TriangleAttributes<T>* triangle_attributes,
-                                          const Ray<T>& ray, const Hit<T>& hit) {
+                                          const Ray<T>& ray, const Hit<T>& hit, bool needs_uv = true) {
   struct Describe {
     const TriangleAttributes<T>* attributes;
     const Ray<T>& ray;
     const Hit<T>& hit;
     SurfacePoint<T>& at;
+    bool needs_uv;
 
     PT_HD void sphere(const Vec3<T>& center, T radius) const {
       const Vec3<T> outward = (at.p - center) / radius;
       set_face_normal(at, ray, outward);
-      sphere_uv(outward, at.u, at.v);
+      if (needs_uv) sphere_uv(outward, at.u, at.v);
     }
     PT_HD void operator()(const Sphere<T>& s) const { sphere(s.center, s.radius); }
     PT_HD void operator()(const MovingSphere<T>& s) const { sphere(moving_sphere_center(s, ray.time), s.radius); }
@@ -248,7 +250,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
   SurfacePoint<T> at{};
   at.p = ray.at(hit.t);
   at.material = primitive.material;
-  visit(Describe{triangle_attributes, ray, hit, at}, primitive.shape);
+  visit(Describe{triangle_attributes, ray, hit, at, needs_uv}, primitive.shape);
   return at;
 }
 
