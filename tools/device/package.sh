@@ -8,9 +8,9 @@ cmake --build build/release
 rm -rf out/device
 mkdir -p out/device/bin out/device/lib
 cp build/release/pathtracer out/device/bin/
-for t in build/release/tests/pathtracer_tests; do [ -x "$t" ] && cp "$t" out/device/bin/; done
+for t in build/release/tests/pt_tests build/release/tests/pt_fixed_point_tests; do [ -x "$t" ] && cp "$t" out/device/bin/; done
 for binary in out/device/bin/*; do
-  ldd "$binary" | awk '/=> \// {print $3}' | grep -E 'libtbb|libfmt|libOpenEXR|libstb|libImath|libIlmThread|libIex|libgtest' | while read -r lib; do
+  ldd "$binary" | awk '/=> \// {print $3}' | grep -E 'libtbb|libfmt|libOpenEXR|libstb|libImath|libIlmThread|libIex|libgtest|libbenchmark' | while read -r lib; do
     cp -L "$lib" out/device/lib/
   done
 done

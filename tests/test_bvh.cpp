@@ -1,0 +1,373 @@
+// Checks that BVH traversal finds exactly the brute-force closest hit, and the BVH's structural invariants.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "flat/bvh_builder.hpp"
+#include "test_support.hpp"
+
+namespace pt {
+namespace {
+
+using test::TestRandom;
+
+SceneDescription empty_scene() {
+  SceneDescription scene;
+  scene.source = "generated";
+  scene.camera.look_from = {0, 0, 30};
+  scene.camera.look_at = {0, 0, 0};
+  scene.camera.focus_distance = 30;
+  scene.camera.shutter_open = 0;
+  scene.camera.shutter_close = 1;
+  scene.textures.push_back(SolidTexture<double>{{0.5, 0.5, 0.5}});
+  scene.materials.push_back(Lambertian<double>{0});  // material 0: surfaces
+  scene.materials.push_back(Isotropic<double>{0});   // material 1: media
+  return scene;
+}
+
+SceneObject object(const ObjectShape& shape, u32 material = 0, const RigidTransform& transform = {}) {
+  SceneObject o;
+  o.shape = shape;
+  o.material = material;
+  o.transform = transform;
+  return o;
+}
+
+// A few thousand primitives of every kind in [-10, 10]^3, with sizes over two orders of magnitude, some
+// primitives sharing one centroid, a huge ground sphere, rotated boxes and two media.
+SceneDescription random_scene(u64 seed) {
+  TestRandom rng(seed);
+  SceneDescription scene = empty_scene();
+  auto size = [&] { return 0.02 * std::pow(50.0, rng.uniform()); };  // 0.02 to 1, log-uniform
+  for (int i = 0; i < 1200; ++i) scene.objects.push_back(object(Sphere<double>{rng.vec3(-10, 10), size()}));
+  for (int i = 0; i < 300; ++i) {
+    const Vec3d c0 = rng.vec3(-10, 10);
+    const double time0 = i % 2 ? 0.0 : 0.25, time1 = i % 2 ? 1.0 : 0.75;  // some move beyond their time range
+    scene.objects.push_back(object(MovingSphereSettings{c0, c0 + rng.vec3(-1.5, 1.5), size(), time0, time1}));
+  }
+  for (int i = 0; i < 900; ++i) {
+    const Vec3d p = rng.vec3(-10, 10);
+    const double s = size() * 2;
+    TriangleSettings t;
+    t.vertices = {p, p + s * rng.unit_vector(), p + s * rng.unit_vector()};
+    if (i % 3 == 0) t.normals = std::array<Vec3d, 3>{rng.unit_vector(), rng.unit_vector(), rng.unit_vector()};
+    if (i % 4 == 0) t.uvs = std::array<std::array<double, 2>, 3>{{{0, 0}, {1, 0}, {0, 1}}};
+    scene.objects.push_back(object(t));
+  }
+  for (int i = 0; i < 600; ++i) {
+    const double s = size() * 2;
+    scene.objects.push_back(object(QuadSettings{rng.vec3(-10, 10), s * rng.unit_vector(), s * rng.unit_vector()}));
+  }
+  for (int i = 0; i < 40; ++i) {
+    const Vec3d lo = rng.vec3(-10, 10);
+    const Vec3d degrees = rng.vec3(-180, 180);  // drawn in a fixed order (function arguments have none)
+    const RigidTransform xf = RigidTransform::from_euler_degrees(degrees, rng.vec3(-1, 1));
+    scene.objects.push_back(object(BoxSettings{lo, lo + Vec3d{size(), size(), size()} * 2.0}, 0, xf));
+  }
+  // Concentric spheres: one centroid shared by more primitives than a leaf holds.
+  for (int i = 0; i < 12; ++i) scene.objects.push_back(object(Sphere<double>{{1.5, -2.5, 3.5}, 0.1 + 0.05 * i}));
+  // One primitive much larger than the rest, and one long sliver.
+  scene.objects.push_back(object(Sphere<double>{{0, -1012, 0}, 1000}));
+  TriangleSettings sliver;
+  sliver.vertices = {Vec3d{-10, -3, 2}, Vec3d{10, 4, -2}, Vec3d{10, 4.01, -2}};
+  scene.objects.push_back(object(sliver));
+  // Two media: a sphere and a rotated box; thin enough that rays often pass through them.
+  scene.objects.push_back(object(MediumSettings{Sphere<double>{{2, 1, -3}, 2.5}, RigidTransform{}, 0.3}, 1));
+  scene.objects.push_back(object(
+      MediumSettings{BoxSettings{{-3, -3, -3}, {3, 2, 1}}, RigidTransform::from_euler_degrees({10, 25, -5}, {0, 0, 0}), 0.2}, 1,
+      RigidTransform::from_euler_degrees({0, 0, 0}, {-4, 3, 4})));
+  return scene;
+}
+
+// Random rays of several kinds: from inside the scene in any direction, from far away towards the scene, along the
+// axes, and with one zero direction component (the BVH's reciprocal must cope).
+template <class T>
+std::vector<Ray<T>> random_rays(u64 seed, int count) {
+  TestRandom rng(seed);
+  std::vector<Ray<T>> rays;
+  for (int i = 0; i < count; ++i) {
+    Vec3d origin = rng.vec3(-12, 12), direction = rng.unit_vector();
+    switch (i % 10) {
+      case 0:
+      case 1: {
+        origin = 30.0 * rng.unit_vector();
+        direction = normalize(rng.vec3(-10, 10) - origin);
+        break;
+      }
+      case 2: {
+        Vec3d axis{0, 0, 0};
+        const int k = static_cast<int>(rng.below(3));
+        (k == 0 ? axis.x : k == 1 ? axis.y : axis.z) = rng.uniform() < 0.5 ? -1 : 1;
+        direction = axis;
+        break;
+      }
+      case 3: {
+        const int k = static_cast<int>(rng.below(3));
+        (k == 0 ? direction.x : k == 1 ? direction.y : direction.z) = 0;
+        direction = normalize(direction);
+        break;
+      }
+      default: break;
+    }
+    rays.push_back(Ray<T>{test::to<T>(origin), test::to<T>(direction), static_cast<T>(rng.uniform())});
+  }
+  return rays;
+}
+
+template <class T>
+struct Comparison {
+  int rays = 0, hits = 0, mismatches = 0;
+  std::vector<int> hits_by_shape = std::vector<int>(std::variant_size_v<Shape<T>>, 0);
+  std::string first_mismatch;
+};
+
+template <class T>
+Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vector<Ray<T>>& rays) {
+  Comparison<T> result;
+  const SceneView<T> view = flat.view();
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    const SampleRandom random = SampleRandom::make(7, static_cast<u32>(i), 0);
+    const IntersectContext<T> context{view.boundaries, &random, 0};
+    Hit<T> bvh_hit{}, brute_hit{};
+    const bool bvh_found = closest_hit(view, rays[i], context, bvh_hit);
+    const bool brute_found = closest_hit_brute_force(flat, rays[i], context, brute_hit);
+    ++result.rays;
+    const bool same = bvh_found == brute_found &&
+                      (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t && bvh_hit.b1 == brute_hit.b1 &&
+                                      bvh_hit.b2 == brute_hit.b2));
+    if (!same) {
+      if (result.mismatches++ == 0)
+        result.first_mismatch = "ray " + std::to_string(i) + ": bvh " + (bvh_found ? std::to_string(bvh_hit.primitive) + " t=" + std::to_string(bvh_hit.t) : "miss") +
+                                ", brute force " + (brute_found ? std::to_string(brute_hit.primitive) + " t=" + std::to_string(brute_hit.t) : "miss");
+      continue;
+    }
+    if (brute_found) {
+      ++result.hits;
+      ++result.hits_by_shape[flat.primitives[brute_hit.primitive].shape.index()];
+    }
+  }
+  return result;
+}
+
+template <class T>
+class BvhMatchesBruteForce : public ::testing::Test {};
+template <class T>
+class BvhStructure : public ::testing::Test {};
+using ScalarTypes = ::testing::Types<float, double>;
+TYPED_TEST_SUITE(BvhMatchesBruteForce, ScalarTypes);
+TYPED_TEST_SUITE(BvhStructure, ScalarTypes);
+
+TYPED_TEST(BvhMatchesBruteForce, RandomSpheresTrianglesQuadsMovingSpheresAndMedia) {
+  using T = TypeParam;
+  const SceneDescription scene = random_scene(12345);
+  RenderSettings settings;
+  settings.width = 64;
+  settings.height = 48;
+  const FlatScene<T> flat = flatten_scene<T>(scene, settings);
+  ASSERT_GT(flat.primitives.size(), 3000u);
+  const Comparison<T> result = compare_with_brute_force(flat, random_rays<T>(777, 20000));
+  EXPECT_EQ(result.mismatches, 0) << result.first_mismatch;
+  // The comparison means something only if rays hit every kind of primitive.
+  EXPECT_GT(result.hits, result.rays / 4);
+  for (std::size_t kind = 0; kind < result.hits_by_shape.size(); ++kind) EXPECT_GT(result.hits_by_shape[kind], 20) << "shape kind " << kind;
+}
+
+TYPED_TEST(BvhMatchesBruteForce, ZeroTminAndRaysStartingOnSurfaces) {
+  using T = TypeParam;
+  // Secondary rays start on a surface: shoot from hit points of the first rays, with t_min as in a render.
+  const SceneDescription scene = random_scene(999);
+  RenderSettings settings;
+  settings.width = 16;
+  settings.height = 16;
+  settings.t_min = 0;
+  const FlatScene<T> flat = flatten_scene<T>(scene, settings);
+  const SceneView<T> view = flat.view();
+  std::vector<Ray<T>> secondary;
+  TestRandom rng(4242);
+  for (const Ray<T>& ray : random_rays<T>(31, 6000)) {
+    const SampleRandom random = SampleRandom::make(3, 0, 0);
+    const IntersectContext<T> context{view.boundaries, &random, 0};
+    Hit<T> hit;
+    if (!closest_hit(view, ray, context, hit)) continue;
+    secondary.push_back(Ray<T>{ray.at(hit.t), test::to<T>(rng.unit_vector()), ray.time});
+  }
+  ASSERT_GT(secondary.size(), 1000u);
+  const Comparison<T> result = compare_with_brute_force(flat, secondary);
+  EXPECT_EQ(result.mismatches, 0) << result.first_mismatch;
+  EXPECT_GT(result.hits, result.rays / 4);
+}
+
+// Spheres at x = 8^k: every binned split can only peel off the outermost few, so the tree reaches the depth limit and
+// ends in a large leaf. Coordinates up to 8^99 need double.
+SceneDescription depth_limited_scene() {
+  SceneDescription scene = empty_scene();
+  for (int k = 0; k < 100; ++k) {
+    const double x = std::pow(8.0, k);
+    scene.objects.push_back(object(Sphere<double>{{x, 0, 0}, 0.1 * x}));
+  }
+  return scene;
+}
+
+TEST(BvhMatchesBruteForceAtDepthLimit, GeometricallySpacedSpheresInDouble) {
+  const FlatScene<double> flat = flatten_scene<double>(depth_limited_scene(), RenderSettings{});
+  ASSERT_EQ(flat.bvh_depth, kBvhMaxDepth);
+  std::vector<Ray<double>> rays;
+  TestRandom rng(5);
+  for (int i = 0; i < 4000; ++i) {
+    const double x = std::pow(8.0, static_cast<double>(rng.below(100)));
+    const Vec3d target{x * rng.uniform(0.9, 1.1), x * rng.uniform(-0.1, 0.1), 0};
+    const Vec3d origin = Vec3d{x, 0, 0} + x * Vec3d{rng.uniform(-1, 1), rng.uniform(-1, 1), 3};
+    rays.push_back(Ray<double>{origin, normalize(target - origin), 0.0});
+  }
+  const Comparison<double> result = compare_with_brute_force(flat, rays);
+  EXPECT_EQ(result.mismatches, 0) << result.first_mismatch;
+  EXPECT_GT(result.hits, 1000);
+}
+
+// Bounds of one flat primitive, in double, as the kernels see it during the shutter interval [0, 1].
+template <class T>
+Aabb primitive_bounds(const FlatScene<T>& flat, const Primitive<T>& p) {
+  Aabb box;
+  auto point = [&](const Vec3<T>& v) { box.grow(Vec3d{static_cast<double>(v.x), static_cast<double>(v.y), static_cast<double>(v.z)}); };
+  auto sphere = [&](const Vec3<T>& c, T r) {
+    point(c - Vec3<T>::splat(r));
+    point(c + Vec3<T>::splat(r));
+  };
+  if (const auto* s = std::get_if<Sphere<T>>(&p.shape)) sphere(s->center, s->radius);
+  if (const auto* s = std::get_if<MovingSphere<T>>(&p.shape)) {
+    sphere(moving_sphere_center(*s, T(0)), s->radius);
+    sphere(moving_sphere_center(*s, T(1)), s->radius);
+  }
+  if (const auto* t = std::get_if<Triangle<T>>(&p.shape)) {
+    point(t->p0);
+    point(t->p0 + t->edge1);
+    point(t->p0 + t->edge2);
+  }
+  if (const auto* q = std::get_if<Quad<T>>(&p.shape)) {
+    point(q->corner);
+    point(q->corner + q->u);
+    point(q->corner + q->v);
+    point(q->corner + q->u + q->v);
+  }
+  if (const auto* m = std::get_if<ConstantMedium<T>>(&p.shape))
+    for (u32 i = 0; i < m->boundary_count; ++i) box.grow(primitive_bounds(flat, flat.boundaries[m->first_boundary + i]));
+  return box;
+}
+
+template <class T>
+bool box_inside(const Vec3<T>& lo, const Vec3<T>& hi, const Vec3<T>& outer_lo, const Vec3<T>& outer_hi) {
+  return lo.x >= outer_lo.x && lo.y >= outer_lo.y && lo.z >= outer_lo.z && hi.x <= outer_hi.x && hi.y <= outer_hi.y && hi.z <= outer_hi.z;
+}
+
+template <class T>
+void check_structure(const FlatScene<T>& flat) {
+  const std::vector<BvhNode<T>>& nodes = flat.nodes;
+  ASSERT_FALSE(nodes.empty());
+  std::vector<int> seen(flat.primitives.size(), 0);
+  std::vector<int> visited(nodes.size(), 0);
+  u32 max_depth = 0;
+  int boxes_outside = 0, primitives_outside = 0;
+  struct Entry {
+    u32 node, depth;
+  };
+  std::vector<Entry> stack{{0, 1}};
+  while (!stack.empty()) {
+    const Entry e = stack.back();
+    stack.pop_back();
+    ASSERT_LT(e.node, nodes.size());
+    ASSERT_EQ(visited[e.node]++, 0) << "node " << e.node << " reached twice";
+    max_depth = std::max(max_depth, e.depth);
+    const BvhNode<T>& n = nodes[e.node];
+    if (n.count > 0) {
+      ASSERT_LE(static_cast<u64>(n.left_first) + n.count, flat.primitives.size());
+      for (u32 i = n.left_first; i < n.left_first + n.count; ++i) {
+        ++seen[i];
+        // Compared in double, where the primitive's bounds are exact.
+        const Aabb b = primitive_bounds(flat, flat.primitives[i]);
+        if (!(b.lo.x >= n.lo.x && b.lo.y >= n.lo.y && b.lo.z >= n.lo.z && b.hi.x <= n.hi.x && b.hi.y <= n.hi.y && b.hi.z <= n.hi.z))
+          ++primitives_outside;
+      }
+    } else {
+      const u32 first = e.node + 1, second = n.left_first;
+      ASSERT_LT(first, nodes.size());
+      ASSERT_LT(second, nodes.size());
+      ASSERT_GT(second, first);
+      for (u32 child : {first, second}) {
+        if (!box_inside(nodes[child].lo, nodes[child].hi, n.lo, n.hi)) ++boxes_outside;
+        stack.push_back({child, e.depth + 1});
+      }
+    }
+  }
+  EXPECT_EQ(boxes_outside, 0) << "child boxes not inside their parent";
+  EXPECT_EQ(primitives_outside, 0) << "primitives not inside their leaf's box";
+  for (std::size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], 1) << "primitive " << i << " is in " << seen[i] << " leaves";
+  for (std::size_t i = 0; i < visited.size(); ++i) ASSERT_EQ(visited[i], 1) << "node " << i << " is unreachable";
+  EXPECT_LE(max_depth, kBvhMaxDepth);
+  EXPECT_EQ(max_depth, flat.bvh_depth);
+}
+
+TYPED_TEST(BvhStructure, EveryPrimitiveInOneLeafAndChildBoxesInsideParents) {
+  using T = TypeParam;
+  const SceneDescription scene = random_scene(12345);
+  const FlatScene<T> flat = flatten_scene<T>(scene, RenderSettings{});
+  check_structure(flat);
+  EXPECT_GT(flat.bvh_depth, 8u);  // a real tree, not one leaf
+}
+
+TYPED_TEST(BvhStructure, InvariantsHoldForSkewedAndCoincidentCentroids) {
+  using T = TypeParam;
+  SceneDescription scene = empty_scene();
+  for (int k = 0; k < 120; ++k) {
+    const double x = std::pow(1.2, k * 0.5);
+    scene.objects.push_back(object(Sphere<double>{{x, 0, 0}, 0.05 * x}));
+  }
+  // Many primitives with one centroid.
+  for (int i = 0; i < 40; ++i) scene.objects.push_back(object(Sphere<double>{{-5, -5, -5}, 0.01 * (i + 1)}));
+  const FlatScene<T> flat = flatten_scene<T>(scene, RenderSettings{});
+  check_structure(flat);
+}
+
+TYPED_TEST(BvhStructure, SinglePrimitiveSceneIsOneLeaf) {
+  using T = TypeParam;
+  SceneDescription scene = empty_scene();
+  scene.objects.push_back(object(Sphere<double>{{0, 0, -5}, 1}));
+  const FlatScene<T> flat = flatten_scene<T>(scene, RenderSettings{});
+  ASSERT_EQ(flat.nodes.size(), 1u);
+  EXPECT_EQ(flat.nodes[0].count, 1u);
+  check_structure(flat);
+  const SceneView<T> view = flat.view();
+  const SampleRandom random = SampleRandom::make(1, 0, 0);
+  const IntersectContext<T> context{view.boundaries, &random, 0};
+  Hit<T> hit;
+  ASSERT_TRUE(closest_hit(view, Ray<T>{test::to<T>({0, 0, 0}), test::to<T>({0, 0, -1}), T(0)}, context, hit));
+  EXPECT_NEAR(hit.t, 4.0, 1e-5);
+  EXPECT_FALSE(closest_hit(view, Ray<T>{test::to<T>({0, 0, 0}), test::to<T>({0, 0, 1}), T(0)}, context, hit));
+}
+
+TEST(BvhStructure, BuilderStopsAtTheDepthLimitWithALargerLeaf) {
+  const FlatScene<double> flat = flatten_scene<double>(depth_limited_scene(), RenderSettings{});
+  check_structure(flat);
+  EXPECT_EQ(flat.bvh_depth, kBvhMaxDepth);
+  u32 largest_leaf = 0;
+  for (const BvhNode<double>& n : flat.nodes) largest_leaf = std::max(largest_leaf, n.count);
+  EXPECT_GT(largest_leaf, kMaxLeafSize);
+}
+
+// Known defect: a scene without primitives gets a root node with an inverted box (lo 1, hi -1) and count 0. The
+// slab test's min/max make that box behave like [-1, 1]^3, so a ray through it is taken into the "interior" root
+// and reads nodes[1], past the end of the one-node array. The parser requires an object, but flatten_scene accepts
+// an empty description. Enable when the empty tree is handled.
+TEST(BvhStructure, DISABLED_EmptySceneHasNoHits) {
+  const FlatScene<float> flat = flatten_scene<float>(empty_scene(), RenderSettings{});
+  const SceneView<float> view = flat.view();
+  const SampleRandom random = SampleRandom::make(1, 0, 0);
+  const IntersectContext<float> context{view.boundaries, &random, 0};
+  Hit<float> hit;
+  EXPECT_FALSE(closest_hit(view, Ray<float>{{0, 0, 0}, {0, 0, -1}, 0.0f}, context, hit));
+}
+
+}  // namespace
+}  // namespace pt

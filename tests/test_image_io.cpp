@@ -1,0 +1,226 @@
+// Checks that written PNG, PFM and OpenEXR files read back as the rendered image, and leave no temporary behind.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <stb/stb_image.h>
+
+#include "test_support.hpp"
+
+namespace pt {
+namespace {
+
+// A small image whose every value differs, including values outside [0, 1].
+LinearImage synthetic_image(u32 width, u32 height) {
+  LinearImage image;
+  image.width = width;
+  image.height = height;
+  for (u32 i = 0; i < width * height * 3; ++i) image.rgb.push_back(static_cast<float>(i) * 0.0371f - 0.25f + (i % 7 == 0 ? 3.5f : 0.0f));
+  return image;
+}
+
+// The first 12 bytes of a file: a PFM header for a one-digit-sized image.
+std::string read_text_header(const std::filesystem::path& path) { return test::read_text_file(path).substr(0, 12); }
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+unsigned char png_byte(float linear) {
+  const float clamped = std::isfinite(linear) ? std::clamp(linear, 0.0f, 1.0f) : 0.0f;
+  return static_cast<unsigned char>(std::lround(linear_to_srgb(clamped) * 255.0f));
+}
+
+std::vector<unsigned char> read_png(const std::filesystem::path& path, int& width, int& height) {
+  int channels = 0;
+  unsigned char* data = stbi_load(path.c_str(), &width, &height, &channels, 3);
+  if (!data) return {};
+  std::vector<unsigned char> bytes(data, data + static_cast<std::size_t>(width) * height * 3);
+  stbi_image_free(data);
+  EXPECT_EQ(channels, 3);
+  return bytes;
+}
+
+LinearImage read_exr(const std::filesystem::path& path) {
+  Imf::InputFile file(path.c_str());
+  const Imath::Box2i window = file.header().dataWindow();
+  LinearImage image;
+  image.width = static_cast<u32>(window.max.x - window.min.x + 1);
+  image.height = static_cast<u32>(window.max.y - window.min.y + 1);
+  image.rgb.resize(static_cast<std::size_t>(image.width) * image.height * 3);
+  const std::size_t x_stride = 3 * sizeof(float), y_stride = x_stride * image.width;
+  char* base = reinterpret_cast<char*>(image.rgb.data()) - window.min.x * x_stride - window.min.y * y_stride;
+  Imf::FrameBuffer frame;
+  frame.insert("R", Imf::Slice(Imf::FLOAT, base, x_stride, y_stride));
+  frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), x_stride, y_stride));
+  frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), x_stride, y_stride));
+  file.setFrameBuffer(frame);
+  file.readPixels(window.min.y, window.max.y);
+  return image;
+}
+
+TEST(OutputFilesReadBack, PfmIsExactWithRowsFromTheTop) {
+  test::TempDir dir;
+  const LinearImage image = synthetic_image(5, 3);
+  write_image(dir / "image.pfm", image);
+  EXPECT_EQ(read_text_header(dir / "image.pfm"), "PF\n5 3\n-1.0\n");
+  EXPECT_EQ(std::filesystem::file_size(dir / "image.pfm"), std::string("PF\n5 3\n-1.0\n").size() + 5 * 3 * 3 * sizeof(float));
+  const LinearImage back = test::read_pfm(dir / "image.pfm");
+  EXPECT_EQ(back.width, 5u);
+  EXPECT_EQ(back.height, 3u);
+  EXPECT_TRUE(same_bits(back.rgb, image.rgb));
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"image.pfm"});
+}
+
+TEST(OutputFilesReadBack, PngIsEightBitSrgbClampedWithRowsFromTheTop) {
+  test::TempDir dir;
+  LinearImage image;
+  image.width = 4;
+  image.height = 2;
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  image.rgb = {0.0f, 0.0031308f, 0.2f, 0.5f, 1.0f, 2.0f, -1.0f, nan, inf, 0.01f, 0.7f, 0.99f,  // top row
+               0.25f, 0.25f, 0.25f, 0.75f, 0.75f, 0.75f, 0.0f, 1.0f, 0.0f, 0.1f, 0.2f, 0.3f};
+  write_image(dir / "image.png", image);
+  int width = 0, height = 0;
+  const std::vector<unsigned char> bytes = read_png(dir / "image.png", width, height);
+  ASSERT_EQ(width, 4);
+  ASSERT_EQ(height, 2);
+  ASSERT_EQ(bytes.size(), image.rgb.size());
+  for (std::size_t i = 0; i < bytes.size(); ++i) EXPECT_EQ(bytes[i], png_byte(image.rgb[i])) << "value " << i;
+  // Known points of the sRGB curve: linear 0.5 is 188, 0.2 is 124; clamping and NaN.
+  EXPECT_EQ(bytes[3], 188);
+  EXPECT_EQ(bytes[2], 124);
+  EXPECT_EQ(bytes[5], 255);
+  EXPECT_EQ(bytes[6], 0);
+  EXPECT_EQ(bytes[7], 0);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"image.png"});
+}
+
+TEST(OutputFilesReadBack, ExrHasTheMagicNumberAndExactFloats) {
+  test::TempDir dir;
+  const LinearImage image = synthetic_image(7, 4);
+  write_image(dir / "image.exr", image);
+  const std::string bytes = test::read_text_file(dir / "image.exr");
+  ASSERT_GT(bytes.size(), 4u);
+  // 20000630 = 0x01312f76, stored little-endian.
+  EXPECT_EQ(static_cast<unsigned char>(bytes[0]), 0x76);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[1]), 0x2f);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[2]), 0x31);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[3]), 0x01);
+  const LinearImage back = read_exr(dir / "image.exr");
+  EXPECT_EQ(back.width, 7u);
+  EXPECT_EQ(back.height, 4u);
+  EXPECT_TRUE(same_bits(back.rgb, image.rgb));
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"image.exr"});
+}
+
+TEST(OutputFilesReadBack, RenderedImageInAllThreeFormats) {
+  test::TempDir dir;
+  const FlatScene<float> scene = test::tiny_reference_scene<float>(2, 3);
+  const LinearImage image = test::render(scene, 2).image;
+  for (const char* name : {"render.png", "render.pfm", "render.exr"}) write_image(dir / name, image);
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"render.exr", "render.pfm", "render.png"}));
+  EXPECT_TRUE(same_bits(test::read_pfm(dir / "render.pfm").rgb, image.rgb));
+  EXPECT_TRUE(same_bits(read_exr(dir / "render.exr").rgb, image.rgb));
+  int width = 0, height = 0;
+  const std::vector<unsigned char> bytes = read_png(dir / "render.png", width, height);
+  ASSERT_EQ(width, 64);
+  ASSERT_EQ(height, 48);
+  int mismatches = 0;
+  for (std::size_t i = 0; i < bytes.size(); ++i) mismatches += bytes[i] != png_byte(image.rgb[i]);
+  EXPECT_EQ(mismatches, 0);
+}
+
+TEST(OutputFilesReadBack, RewritingReplacesTheFile) {
+  test::TempDir dir;
+  write_image(dir / "image.pfm", synthetic_image(5, 3));
+  const LinearImage second = synthetic_image(2, 2);
+  write_image(dir / "image.pfm", second);
+  EXPECT_TRUE(same_bits(test::read_pfm(dir / "image.pfm").rgb, second.rgb));
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"image.pfm"});
+}
+
+TEST(FailedImageWrite, LeavesNoFileAndNamesThePath) {
+  test::TempDir dir;
+  const LinearImage image = synthetic_image(3, 2);
+  // A folder that does not exist.
+  const std::filesystem::path nowhere = dir / "missing" / "image.png";
+  try {
+    write_image(nowhere, image);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(nowhere.string() + ": cannot write the image", 0), 0u) << e.what();
+  }
+  // A folder standing where the file should go: the temporary is written, the rename fails, the temporary goes.
+  for (const char* name : {"taken.png", "taken.pfm", "taken.exr"}) {
+    std::filesystem::create_directory(dir / name);
+    EXPECT_THROW(write_image(dir / name, image), InputError) << name;
+    EXPECT_TRUE(std::filesystem::is_empty(dir / name));
+  }
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"taken.exr", "taken.pfm", "taken.png"}));
+}
+
+TEST(ImageFormatFromExtension, KnownExtensionsInAnyCaseOthersRejected) {
+  EXPECT_EQ(image_format_for("a.png"), ImageFormat::kPng);
+  EXPECT_EQ(image_format_for("dir.x/a.PNG"), ImageFormat::kPng);
+  EXPECT_EQ(image_format_for("a.Pfm"), ImageFormat::kPfm);
+  EXPECT_EQ(image_format_for("a.exr"), ImageFormat::kExr);
+  for (const char* bad : {"a.jpg", "a", "a.png.txt", "png"}) {
+    try {
+      image_format_for(bad);
+      FAIL() << bad;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(std::string(bad) + ": unknown image extension", 0), 0u) << e.what();
+    }
+  }
+}
+
+TEST(TextureImages, PngDecodesFromSrgbToLinear) {
+  test::TempDir dir;
+  const LinearImage image = synthetic_image(6, 5);
+  write_image(dir / "texture.png", image);
+  const LinearImage back = read_texture_image(dir / "texture.png");
+  ASSERT_EQ(back.width, 6u);
+  ASSERT_EQ(back.height, 5u);
+  for (std::size_t i = 0; i < image.rgb.size(); ++i) {
+    // Exactly the decoded byte, and close to the original (8-bit sRGB steps are at most 0.013 in linear).
+    EXPECT_EQ(back.rgb[i], srgb_to_linear(png_byte(image.rgb[i]) / 255.0f)) << i;
+    EXPECT_NEAR(back.rgb[i], std::clamp(image.rgb[i], 0.0f, 1.0f), 0.007) << i;
+  }
+}
+
+TEST(TextureImages, SrgbCurvesAreInverse) {
+  for (int i = 0; i <= 1000; ++i) {
+    const float x = i / 1000.0f;
+    EXPECT_NEAR(srgb_to_linear(linear_to_srgb(x)), x, 2e-6f) << x;
+  }
+  EXPECT_NEAR(linear_to_srgb(0.5f), 0.7354f, 1e-4f);
+  EXPECT_NEAR(srgb_to_linear(0.5f), 0.2140f, 1e-4f);
+}
+
+TEST(TextureImages, MissingOrInvalidFilesAreInputErrors) {
+  test::TempDir dir;
+  try {
+    read_texture_image(dir / "absent.png");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+  }
+  test::write_text_file(dir / "text.png", "plain text");
+  EXPECT_THROW(read_texture_image(dir / "text.png"), InputError);
+  // A PFM is not an 8-bit texture format.
+  write_image(dir / "float.pfm", synthetic_image(2, 2));
+  EXPECT_THROW(read_texture_image(dir / "float.pfm"), InputError);
+}
+
+}  // namespace
+}  // namespace pt
