@@ -1,5 +1,5 @@
-// Parity of the SYCL backend with the native CPU backend: same scene, same seed, images equal within a bound
-// set by the Monte Carlo noise itself; plus its device listing and its errors. Skipped in builds without SYCL.
+// The SYCL backend beyond the shared parity test (tests/test_backend_parity.cpp, float): parity in double, the
+// image independent of how samples are split, device selection, listing and errors. Skipped without SYCL.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -71,13 +71,14 @@ double fraction_close(const LinearImage& a, const LinearImage& b, double relativ
   std::size_t close = 0;
   for (std::size_t i = 0; i < a.rgb.size(); ++i) {
     const double x = a.rgb[i], y = b.rgb[i];
-    if (std::abs(x - y) <= relative * std::max(std::abs(x), std::abs(y))) ++close;
+    if (std::abs(x - y) <= relative * std::max(1.0, std::abs(x))) ++close;
   }
   return static_cast<double>(close) / static_cast<double>(a.rgb.size());
 }
 
-// Same seed on both backends: the images differ only where the compilers round differently and a path takes
-// another branch, so their distance must be far below the noise between two seeds of the CPU image.
+// Same seed on both backends, with the bound of tests/test_backend_parity.cpp: the images differ only where the
+// compilers round differently and a path takes another branch, so their distance must be far below the noise
+// between two seeds of the CPU image.
 template <class T>
 void expect_parity(const std::string& scene, u32 width, u32 height, u32 spp) {
   const std::unique_ptr<RenderBackend<T>> cpu = make_cpu_backend<T>(0, Integrator::kMegakernel);
@@ -107,14 +108,8 @@ void expect_parity(const std::string& scene, u32 width, u32 height, u32 spp) {
   EXPECT_NEAR(static_cast<double>(tested.stats.rays), static_cast<double>(reference.stats.rays), 0.005 * reference.stats.rays);
 }
 
-TEST(SyclBackend, TinySceneMatchesCpuFloat) { expect_parity<float>("tiny.json", 64, 48, 16); }
-
+// The double kernels are a separate instantiation, which the shared parity test (float) does not cover.
 TEST(SyclBackend, TinySceneMatchesCpuDouble) { expect_parity<double>("tiny.json", 64, 48, 16); }
-
-TEST(SyclBackend, SeedDefaultSceneMatchesCpu) { expect_parity<float>("seed-default.json", 160, 96, 8); }
-
-// Image textures read the one shared texel buffer at their own offsets.
-TEST(SyclBackend, TexturedSceneMatchesCpu) { expect_parity<float>("book2-final.json", 80, 80, 4); }
 
 TEST(SyclBackend, ImageDoesNotDependOnHowSamplesAreSplit) {
   const std::unique_ptr<RenderBackend<float>> sycl = make_sycl_backend<float>(test_device());
