@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include "backends/cpu/cpu_backend.hpp"
+#include "flat/number_formats.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif
@@ -34,33 +35,52 @@ std::string backend_choices() {
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator,
                                                int sycl_device) {
+  if constexpr (is_fixed_v<T>) {
+    // The GPU backends are built for float and double only: fixed-point formats are explored on the host.
+    (void)device;
+    (void)sycl_device;
+    if (name != "cpu" && name != "auto") throw BackendError(fmt::format("number format {} renders on the cpu backend only", number_format_name<T>()));
+    return make_cpu_backend<T>(threads, integrator);
+  } else {
 #if PT_HAVE_SYCL
-  if (name == "sycl") {
-    // The SYCL backend has the megakernel only; saying so beats silently rendering another way.
-    if (integrator == Integrator::kWavefront) throw BackendError("sycl: the wavefront integrator is not available on this backend");
-    return make_sycl_backend<T>(sycl_device);
-  }
+    if (name == "sycl") {
+      // The SYCL backend has the megakernel only; saying so beats silently rendering another way.
+      if (integrator == Integrator::kWavefront) throw BackendError("sycl: the wavefront integrator is not available on this backend");
+      return make_sycl_backend<T>(sycl_device);
+    }
 #else
-  (void)sycl_device;
+    (void)sycl_device;
 #endif
 #if PT_HAVE_CUDA
-  if (name == "cuda") return make_cuda_backend<T>(device, integrator);
-  if (name == "auto") {
-    if (cuda_device_count() > 0) {
-      fmt::print(stderr, "backend auto: using cuda\n");
-      return make_cuda_backend<T>(device, integrator);
+    if (name == "cuda") return make_cuda_backend<T>(device, integrator);
+    if (name == "auto") {
+      if (cuda_device_count() > 0) {
+        fmt::print(stderr, "backend auto: using cuda\n");
+        return make_cuda_backend<T>(device, integrator);
+      }
+      fmt::print(stderr, "backend auto: no usable GPU, using cpu\n");
     }
-    fmt::print(stderr, "backend auto: no usable GPU, using cpu\n");
-  }
 #else
-  (void)device;
-  if (name == "auto") fmt::print(stderr, "backend auto: built without GPU backends, using cpu\n");
+    (void)device;
+    if (name == "auto") fmt::print(stderr, "backend auto: built without GPU backends, using cpu\n");
 #endif
-  return make_cpu_backend<T>(threads, integrator);
+    return make_cpu_backend<T>(threads, integrator);
+  }
 }
 
 template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator, int);
 template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator, int);
+#define PT_INSTANTIATE_FIXED_BACKEND(I, F) \
+  template std::unique_ptr<RenderBackend<Fixed<I, F>>> make_backend<Fixed<I, F>>(const std::string&, unsigned, int, Integrator, int);
+PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_BACKEND)
+
+bool gpu_available() {
+#if PT_HAVE_CUDA
+  return cuda_device_count() > 0;
+#else
+  return false;
+#endif
+}
 
 void list_devices() {
   fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());

@@ -1,4 +1,5 @@
-// The command line: `pathtracer render SCENE -o IMAGE` with overrides, `pathtracer devices`, --help, --version.
+// The command line: `pathtracer render SCENE -o IMAGE` with overrides, `pathtracer numerics SCENE`, `pathtracer devices`,
+// --help, --version.
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,7 +13,9 @@
 #include <fmt/format.h>
 
 #include "app/backends.hpp"
+#include "app/numerics.hpp"
 #include "film/film.hpp"
+#include "flat/number_formats.hpp"
 #include "scene/scene_loader.hpp"
 
 #ifndef PT_VERSION
@@ -34,13 +37,18 @@ struct RenderOptions {
   int device = 0;
   int sycl_device = -1;  // SYCL device index; negative: the runtime's default choice
   std::string number_format = "float";
-  std::string integrator = "megakernel";
+  std::string integrator = "auto";
   bool quiet = false;
   u32 runs = 5;  // bench only
 };
 
+// "auto" picks each backend's faster integrator as measured in BENCHMARKS.md: the wavefront on GPUs (about 2x on
+// material-heavy scenes), the megakernel on the CPU (the wavefront's queues cost more there than they save).
 Integrator integrator_of(const RenderOptions& options) {
-  return options.integrator == "wavefront" ? Integrator::kWavefront : Integrator::kMegakernel;
+  if (options.integrator == "wavefront") return Integrator::kWavefront;
+  if (options.integrator == "megakernel") return Integrator::kMegakernel;
+  const bool gpu = options.backend == "cuda" || (options.backend == "auto" && gpu_available());
+  return gpu ? Integrator::kWavefront : Integrator::kMegakernel;
 }
 
 std::string format_duration(double seconds) {
@@ -73,15 +81,18 @@ int render_with(const RenderOptions& options, const SceneDescription& scene, con
   std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
                                                               options.sycl_device);
   const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
-  if (!options.quiet)
+  if (!options.quiet) {
     fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
                settings.samples_per_pixel, settings.max_depth, flat.primitives.size(), backend->name(), options.number_format);
+    if (flat.scale != 1) fmt::print(stderr, "lengths scaled by {:g} to fit {} (docs/numerics.md)\n", flat.scale, options.number_format);
+  }
   const RenderResult result = render_scene(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
   write_image(options.output, result.image);
   if (!options.quiet) {
     const RenderStats& s = result.stats;
     fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
                format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
+    if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
   }
   return 0;
 }
@@ -94,7 +105,7 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   if (options.depth) settings.max_depth = *options.depth;
   if (options.seed) settings.seed = *options.seed;
   if (static_cast<u64>(settings.width) * settings.height > kMaxImagePixels)
-    throw InputError(fmt::format("{}x{} pixels is too large (at most {} pixels)", settings.width, settings.height, kMaxImagePixels));
+    throw InputError(fmt::format("{}: {}x{} pixels is too large (at most {} pixels)", scene.source, settings.width, settings.height, kMaxImagePixels));
   return settings;
 }
 
@@ -103,8 +114,7 @@ int run_render(const RenderOptions& options) {
   image_format_for(options.output);
   const SceneDescription scene = load_scene_file(options.scene);
   const RenderSettings settings = effective_settings(options, scene);
-  if (options.number_format == "double") return render_with<double>(options, scene, settings);
-  return render_with<float>(options, scene, settings);
+  return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, scene, settings); });
 }
 
 // Renders the scene `runs` times after a short warm-up and reports the median: the benchmark of BENCHMARKS.md.
@@ -145,8 +155,7 @@ int bench_with(const RenderOptions& options, const SceneDescription& scene, cons
 int run_bench(const RenderOptions& options) {
   const SceneDescription scene = load_scene_file(options.scene);
   const RenderSettings settings = effective_settings(options, scene);
-  if (options.number_format == "double") return bench_with<double>(options, scene, settings);
-  return bench_with<float>(options, scene, settings);
+  return with_number_format(options.number_format, [&]<class T>() { return bench_with<T>(options, scene, settings); });
 }
 
 }  // namespace
@@ -157,6 +166,8 @@ int main(int argc, char** argv) {
   CLI::App app{"pathtracer: a physically based Monte Carlo path tracer for CPUs and GPUs"};
   app.set_version_flag("--version", std::string("pathtracer ") + PT_VERSION);
   app.require_subcommand(1);
+  // Command-line mistakes get the same one-line form as every other error.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) { return std::string("pathtracer: error: ") + e.what() + "\n"; });
 
   RenderOptions options;
   CLI::App* render = app.add_subcommand("render", "Render a scene file to an image (PNG, PFM or OpenEXR, by extension)");
@@ -173,16 +184,28 @@ int main(int argc, char** argv) {
     command->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
     command->add_option("--sycl-device", options.sycl_device, "Device index for the sycl backend (see `pathtracer devices`; default: the runtime's choice)")
         ->check(CLI::NonNegativeNumber);
-    command->add_option("--integrator", options.integrator, "megakernel (each path in one go) or wavefront (stages over queues)")
-        ->check(CLI::IsMember({"megakernel", "wavefront"}))
+    command->add_option("--integrator", options.integrator, "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
+        ->check(CLI::IsMember({"auto", "megakernel", "wavefront"}))
         ->capture_default_str();
-    command->add_option("--number-format", options.number_format, "Scalar type of the kernels")
-        ->check(CLI::IsMember({"float", "double"}))
+    command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")
+        ->check(CLI::IsMember(number_format_names()))
         ->capture_default_str();
   }
   render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
   bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
+
+  NumericsOptions numerics_options;
+  CLI::App* numerics = app.add_subcommand("numerics", "Render a scene in every number format and measure each against double (docs/numerics.md)");
+  numerics->add_option("scene", numerics_options.scene, "Scene file (JSON)")->required();
+  numerics->add_option("-o,--output", numerics_options.output_folder, "Folder for the CSV table, the SVG plot and the images")->capture_default_str();
+  numerics->add_option("--width", numerics_options.width, "Image width in pixels")->check(CLI::Range(1u, kMaxImageSide))->capture_default_str();
+  numerics->add_option("--height", numerics_options.height, "Image height in pixels")->check(CLI::Range(1u, kMaxImageSide))->capture_default_str();
+  numerics->add_option("--spp", numerics_options.spp, "Samples per pixel")->check(CLI::Range(1u, kMaxSamplesPerPixel))->capture_default_str();
+  numerics->add_option("--depth", numerics_options.depth, "Maximum path depth (bounces); the scene's if omitted")->check(CLI::Range(1u, kMaxDepth));
+  numerics->add_option("--seed", numerics_options.seed, "Random seed; the scene's if omitted");
+  numerics->add_option("--threads", numerics_options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
+  numerics->add_option("--formats", numerics_options.formats, "Formats to compare (default: all built in)")->check(CLI::IsMember(number_format_names()));
 
   CLI::App* devices = app.add_subcommand("devices", "List the devices of every backend built in");
 
@@ -197,6 +220,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*bench) return run_bench(options);
+    if (*numerics) return run_numerics(numerics_options);
     return run_render(options);
   } catch (const InputError& e) {
     fmt::print(stderr, "pathtracer: error: {}\n", e.what());

@@ -36,6 +36,9 @@ class RenderBackend {
 
   // Seconds spent in each stage of the wavefront integrator since the last upload (empty for the megakernel).
   virtual std::vector<std::pair<std::string, double>> stage_seconds() const { return {}; }
+
+  // Fixed-point saturation events since the last upload; 0 where the backend does not count them (GPUs).
+  virtual u64 saturations() const { return 0; }
 };
 
 // How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront).

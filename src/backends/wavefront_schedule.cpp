@@ -6,7 +6,8 @@
 namespace pt {
 
 u32 wavefront_samples_per_batch(u32 pixels, u32 pool_capacity) {
-  const u64 wanted_items = 8ull * pool_capacity;
+  // The pool drains at the end of every batch; with batches of many pools' worth that tail is paid rarely.
+  const u64 wanted_items = 32ull * pool_capacity;
   return static_cast<u32>(std::clamp<u64>((wanted_items + pixels - 1) / pixels, 1, 64));
 }
 

@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "flat/number_formats.hpp"
+
 namespace pt {
 
 LinearImage resolve_film(const std::vector<FilmPixel>& film, u32 width, u32 height) {
@@ -56,6 +58,7 @@ RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, 
   std::vector<FilmPixel> film;
   backend.read_film(film);
   result.stats = film_stats(film, total);
+  result.stats.saturations = backend.saturations();
   result.stats.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   result.image = resolve_film(film, scene.params.width, scene.params.height);
   return result;
@@ -63,5 +66,8 @@ RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, 
 
 template RenderResult render_scene<float>(RenderBackend<float>&, const FlatScene<float>&, const ProgressCallback&);
 template RenderResult render_scene<double>(RenderBackend<double>&, const FlatScene<double>&, const ProgressCallback&);
+#define PT_INSTANTIATE_FIXED_RENDER(I, F) \
+  template RenderResult render_scene<Fixed<I, F>>(RenderBackend<Fixed<I, F>>&, const FlatScene<Fixed<I, F>>&, const ProgressCallback&);
+PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_RENDER)
 
 }  // namespace pt

@@ -14,6 +14,7 @@ struct RenderStats {
   u64 samples = 0;              // camera samples traced
   u64 rays = 0;                 // closest-hit queries
   u64 dropped_samples = 0;      // non-finite samples left out of their pixel
+  u64 saturations = 0;          // fixed-point results clamped to the format's range (0 for float and double)
 };
 
 struct Progress {

@@ -26,6 +26,7 @@ struct FlatScene {
   RenderParams<T> params;
   u32 samples_per_pixel = 0;
   u32 bvh_depth = 0;
+  double scale = 1;  // every length of the scene was multiplied by this to fit the scalar type (docs/numerics.md)
 
   // Host pointers into the arrays above (the CPU backend renders from this directly).
   SceneView<T> view() const;
@@ -41,10 +42,13 @@ static_assert(std::is_trivially_copyable_v<BvhNode<float>>);
 static_assert(std::is_trivially_copyable_v<SceneView<float>>);
 static_assert(sizeof(BvhNode<float>) == 32, "a BVH node fills one 32-byte sector");
 
-// Flattens the scene with the effective render settings (the file's, after command-line overrides).
-// Throws InputError when the scene cannot be represented (for instance, too many primitives).
+// Flattens the scene with the effective render settings (the file's, after command-line overrides), with every
+// length multiplied by `scale`; scale 0 picks it: 1 for float and double, for a fixed-point format the largest
+// power of two (at most 1) that brings every coordinate within half the square root of the format's range, so
+// squared distances fit. Throws InputError when the scene cannot be represented (for instance, too many
+// primitives, or a value that does not fit a fixed-point format after scaling).
 template <class T>
-FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings);
+FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale = 0);
 
 // The brute-force closest hit (every primitive tested): the reference the BVH is checked against.
 template <class T>

@@ -2,33 +2,49 @@
 // and every value converted from the description's double to the kernels' scalar type.
 #include "flat/flat_scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
 
 #include "flat/bvh_builder.hpp"
+#include "flat/number_formats.hpp"
 
 namespace pt {
 
 namespace {
 
-template <class T> Vec3<T> to(const Vec3d& v) { return {static_cast<T>(v.x), static_cast<T>(v.y), static_cast<T>(v.z)}; }
+// A value a fixed-point format cannot hold; flatten_scene turns it into an InputError naming the scene.
+struct DoesNotFit {
+  double value;
+};
+
+// Conversion to the kernels' scalar type that refuses, rather than saturates, a value out of a fixed format's range.
+template <class T>
+T scalar(double v) {
+  if constexpr (is_fixed_v<T>) {
+    if (!(std::abs(v) <= static_cast<double>(largest<T>()))) throw DoesNotFit{v};
+  }
+  return static_cast<T>(v);
+}
+
+template <class T> Vec3<T> to(const Vec3d& v) { return {scalar<T>(v.x), scalar<T>(v.y), scalar<T>(v.z)}; }
 
 template <class T>
 Texture<T> to(const Texture<double>& texture) {
   struct Convert {
     Texture<T> operator()(const SolidTexture<double>& t) const { return SolidTexture<T>{to<T>(t.color)}; }
     Texture<T> operator()(const CheckerTexture<double>& t) const {
-      return CheckerTexture<T>{to<T>(t.odd), to<T>(t.even), static_cast<T>(t.frequency)};
+      return CheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.frequency)};
     }
     Texture<T> operator()(const UvCheckerTexture<double>& t) const {
-      return UvCheckerTexture<T>{to<T>(t.odd), to<T>(t.even), static_cast<T>(t.columns), static_cast<T>(t.rows)};
+      return UvCheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.columns), scalar<T>(t.rows)};
     }
     Texture<T> operator()(const ImageTexture<double>& t) const {
-      return ImageTexture<T>{t.width, t.height, t.offset, static_cast<T>(t.repeat)};
+      return ImageTexture<T>{t.width, t.height, t.offset, scalar<T>(t.repeat)};
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
-      return NoiseTexture<T>{static_cast<T>(t.scale), t.kind, t.turbulence_depth};
+      return NoiseTexture<T>{scalar<T>(t.scale), t.kind, t.turbulence_depth};
     }
   };
   return visit(Convert{}, texture);
@@ -38,8 +54,8 @@ template <class T>
 Material<T> to(const Material<double>& material) {
   struct Convert {
     Material<T> operator()(const Lambertian<double>& m) const { return Lambertian<T>{m.texture}; }
-    Material<T> operator()(const Metal<double>& m) const { return Metal<T>{to<T>(m.albedo), static_cast<T>(m.fuzz)}; }
-    Material<T> operator()(const Dielectric<double>& m) const { return Dielectric<T>{static_cast<T>(m.ior), to<T>(m.tint)}; }
+    Material<T> operator()(const Metal<double>& m) const { return Metal<T>{to<T>(m.albedo), scalar<T>(m.fuzz)}; }
+    Material<T> operator()(const Dielectric<double>& m) const { return Dielectric<T>{scalar<T>(m.ior), to<T>(m.tint)}; }
     Material<T> operator()(const DiffuseLight<double>& m) const { return DiffuseLight<T>{m.texture}; }
     Material<T> operator()(const Isotropic<double>& m) const { return Isotropic<T>{m.texture}; }
   };
@@ -49,17 +65,56 @@ Material<T> to(const Material<double>& material) {
 template <class T>
 Primitive<T> to(const Primitive<double>& primitive) {
   struct Convert {
-    Shape<T> operator()(const Sphere<double>& s) const { return Sphere<T>{to<T>(s.center), static_cast<T>(s.radius)}; }
+    Shape<T> operator()(const Sphere<double>& s) const { return Sphere<T>{to<T>(s.center), scalar<T>(s.radius)}; }
     Shape<T> operator()(const MovingSphere<double>& s) const {
-      return MovingSphere<T>{to<T>(s.center0), static_cast<T>(s.radius), to<T>(s.velocity), static_cast<T>(s.time0)};
+      return MovingSphere<T>{to<T>(s.center0), scalar<T>(s.radius), to<T>(s.velocity), scalar<T>(s.time0)};
     }
     Shape<T> operator()(const Triangle<double>& t) const { return Triangle<T>{to<T>(t.p0), to<T>(t.edge1), to<T>(t.edge2), t.attributes}; }
     Shape<T> operator()(const Quad<double>& q) const { return Quad<T>{to<T>(q.corner), to<T>(q.u), to<T>(q.v), to<T>(q.w)}; }
     Shape<T> operator()(const ConstantMedium<double>& m) const {
-      return ConstantMedium<T>{m.first_boundary, m.boundary_count, static_cast<T>(m.neg_inv_density)};
+      return ConstantMedium<T>{m.first_boundary, m.boundary_count, scalar<T>(m.neg_inv_density)};
     }
   };
   return Primitive<T>{visit(Convert{}, primitive.shape), primitive.material};
+}
+
+// The primitive with every length multiplied by s; 1 / density is a length, a quad's w = (u x v) / |u x v|^2 is per area.
+Primitive<double> scaled(const Primitive<double>& primitive, double s) {
+  struct Scale {
+    double s;
+    Shape<double> operator()(const Sphere<double>& x) const { return Sphere<double>{x.center * s, x.radius * s}; }
+    Shape<double> operator()(const MovingSphere<double>& x) const {
+      return MovingSphere<double>{x.center0 * s, x.radius * s, x.velocity * s, x.time0};
+    }
+    Shape<double> operator()(const Triangle<double>& x) const { return Triangle<double>{x.p0 * s, x.edge1 * s, x.edge2 * s, x.attributes}; }
+    Shape<double> operator()(const Quad<double>& x) const { return Quad<double>{x.corner * s, x.u * s, x.v * s, x.w / (s * s)}; }
+    Shape<double> operator()(const ConstantMedium<double>& x) const {
+      return ConstantMedium<double>{x.first_boundary, x.boundary_count, x.neg_inv_density * s};
+    }
+  };
+  return Primitive<double>{visit(Scale{s}, primitive.shape), primitive.material};
+}
+
+// Textures that read the world position keep their pattern in place on the scaled scene.
+Texture<double> scaled(Texture<double> texture, double s) {
+  if (auto* t = std::get_if<CheckerTexture<double>>(&texture)) t->frequency /= s;
+  if (auto* t = std::get_if<NoiseTexture<double>>(&texture)) t->scale /= s;
+  return texture;
+}
+
+// The largest absolute coordinate of any bounds, the camera and its image plane.
+double scene_extent(const std::vector<Aabb>& bounds, const Camera<double>& camera) {
+  double extent = 0;
+  auto grow = [&](const Vec3d& p) { extent = std::max({extent, std::abs(p.x), std::abs(p.y), std::abs(p.z)}); };
+  for (const Aabb& b : bounds)
+    if (b.lo.x <= b.hi.x) {
+      grow(b.lo);
+      grow(b.hi);
+    }
+  grow(camera.origin);
+  grow(camera.lower_left);
+  grow(camera.lower_left + camera.horizontal + camera.vertical);
+  return extent;
 }
 
 Quad<double> make_quad(const Vec3d& corner, const Vec3d& u, const Vec3d& v) {
@@ -139,8 +194,8 @@ Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
   const Vec3d lower_left = c.look_from - horizontal / 2.0 - vertical / 2.0 - c.focus_distance * w;
   const double lens_radius = c.aperture / 2;
   return Camera<T>{to<T>(c.look_from), to<T>(lower_left), to<T>(horizontal), to<T>(vertical),
-                   to<T>(u * lens_radius),  to<T>(v * lens_radius),  static_cast<T>(c.shutter_open),
-                   static_cast<T>(c.shutter_close - c.shutter_open)};
+                   to<T>(u * lens_radius),  to<T>(v * lens_radius),  scalar<T>(c.shutter_open),
+                   scalar<T>(c.shutter_close - c.shutter_open)};
 }
 
 // Perlin tables from a fixed hash, identical on every platform and compiler.
@@ -165,7 +220,7 @@ void make_perlin_tables(FlatScene<T>& flat) {
 }  // namespace
 
 template <class T>
-FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings) {
+FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale) {
   std::vector<Primitive<double>> primitives, boundaries;
   std::vector<TriangleAttributes<double>> attributes;
   for (const SceneObject& object : scene.objects) {
@@ -213,20 +268,52 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
 
   const double open = scene.camera.shutter_open, close = scene.camera.shutter_close;
-  std::vector<Aabb> bounds;
-  bounds.reserve(primitives.size());
-  for (const Primitive<double>& p : primitives) {
-    if (const auto* m = std::get_if<ConstantMedium<double>>(&p.shape)) {
-      Aabb box;
-      for (u32 i = 0; i < m->boundary_count; ++i) box.grow(geometry_bounds(boundaries[m->first_boundary + i], open, close));
-      bounds.push_back(box);
-    } else {
-      bounds.push_back(geometry_bounds(p, open, close));
+  auto all_bounds = [&] {
+    std::vector<Aabb> bounds;
+    bounds.reserve(primitives.size());
+    for (const Primitive<double>& p : primitives) {
+      if (const auto* m = std::get_if<ConstantMedium<double>>(&p.shape)) {
+        Aabb box;
+        for (u32 i = 0; i < m->boundary_count; ++i) box.grow(geometry_bounds(boundaries[m->first_boundary + i], open, close));
+        bounds.push_back(box);
+      } else {
+        bounds.push_back(geometry_bounds(p, open, close));
+      }
+    }
+    return bounds;
+  };
+  std::vector<Aabb> bounds = all_bounds();
+
+  // Fixed point: scale all lengths by a power of two (exact in binary) so that squared distances stay in range.
+  if (!(scale > 0)) {
+    scale = 1;
+    if constexpr (is_fixed_v<T>) {
+      const double extent = scene_extent(bounds, make_camera<double>(scene.camera, settings.width, settings.height));
+      const double fit = std::sqrt(static_cast<double>(largest<T>())) / 2;
+      if (extent > fit) scale = std::exp2(std::floor(std::log2(fit / extent)));
     }
   }
+  CameraSettings camera = scene.camera;
+  std::vector<Texture<double>> textures = scene.textures;
+  double t_min = settings.t_min;
+  if (scale != 1) {
+    for (Primitive<double>& p : primitives) p = scaled(p, scale);
+    for (Primitive<double>& p : boundaries) p = scaled(p, scale);
+    for (Texture<double>& t : textures) t = scaled(t, scale);
+    camera.look_from = camera.look_from * scale;
+    camera.look_at = camera.look_at * scale;
+    camera.focus_distance *= scale;
+    camera.aperture *= scale;
+    t_min *= scale;
+    bounds = all_bounds();
+  }
+  // A t_min that would round to zero would let rays hit the surface they leave: keep it at one step.
+  if constexpr (is_fixed_v<T>) t_min = std::max(t_min, static_cast<double>(ScalarTraits<T>::epsilon()));
   const BuiltBvh bvh = build_bvh(bounds);
 
   FlatScene<T> flat;
+  flat.scale = scale;
+  try {
   flat.bvh_depth = bvh.depth;
   flat.nodes.reserve(bvh.nodes.size());
   for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
@@ -237,21 +324,25 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     TriangleAttributes<T> out{};
     for (int i = 0; i < 3; ++i) {
       out.normal[i] = to<T>(a.normal[i]);
-      out.u[i] = static_cast<T>(a.u[i]);
-      out.v[i] = static_cast<T>(a.v[i]);
+      out.u[i] = scalar<T>(a.u[i]);
+      out.v[i] = scalar<T>(a.v[i]);
     }
     out.has_normals = a.has_normals;
     out.has_uvs = a.has_uvs;
     flat.triangle_attributes.push_back(out);
   }
   for (const Material<double>& m : scene.materials) flat.materials.push_back(to<T>(m));
-  for (const Texture<double>& t : scene.textures) flat.textures.push_back(to<T>(t));
+  for (const Texture<double>& t : textures) flat.textures.push_back(to<T>(t));
   flat.texels = scene.texels;
   make_perlin_tables(flat);
-  flat.camera = make_camera<T>(scene.camera, settings.width, settings.height);
+  flat.camera = make_camera<T>(camera, settings.width, settings.height);
   flat.background = Background<T>{to<T>(scene.background.horizon), to<T>(scene.background.zenith)};
   flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth,
-                                static_cast<T>(settings.t_min)};
+                                scalar<T>(t_min)};
+  } catch (const DoesNotFit& e) {
+    throw InputError(fmt::format("{}: value {:g} does not fit {} (largest {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
+                                 scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
+  }
   flat.samples_per_pixel = settings.samples_per_pixel;
   return flat;
 }
@@ -289,9 +380,13 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
 
 #define PT_INSTANTIATE_FLAT_SCENE(T)                                                                  \
   template struct FlatScene<T>;                                                                       \
-  template FlatScene<T> flatten_scene<T>(const SceneDescription&, const RenderSettings&);            \
+  template FlatScene<T> flatten_scene<T>(const SceneDescription&, const RenderSettings&, double);            \
   template bool closest_hit_brute_force<T>(const FlatScene<T>&, const Ray<T>&, const IntersectContext<T>&, Hit<T>&);
 PT_INSTANTIATE_FLAT_SCENE(float)
 PT_INSTANTIATE_FLAT_SCENE(double)
+#define PT_INSTANTIATE_FIXED_FLAT_SCENE(I, F) \
+  using Fixed##I##_##F = Fixed<I, F>;        \
+  PT_INSTANTIATE_FLAT_SCENE(Fixed##I##_##F)
+PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_FLAT_SCENE)
 
 }  // namespace pt

@@ -25,4 +25,22 @@ PT_HD inline u32 atomic_fetch_add(u32* counter, u32 value) {
 #endif
 }
 
+// Takes a slot at the end of a queue whose length is *counter. On a GPU the threads of a warp that push onto
+// the same queue together make one atomic addition between them (a queue counter is hit by every thread of a
+// stage, and same-address atomics serialise); elsewhere it is one relaxed atomic per push.
+PT_HD inline u32 queue_push(u32* counter) {
+#if defined(__CUDA_ARCH__)
+  const unsigned active = __activemask();
+  const unsigned same_queue = __match_any_sync(active, reinterpret_cast<unsigned long long>(counter));
+  const unsigned lane = threadIdx.x & 31u;  // stages run in one-dimensional blocks
+  const int leader = __ffs(same_queue) - 1;
+  u32 first = 0;
+  if (static_cast<int>(lane) == leader) first = atomicAdd(counter, static_cast<u32>(__popc(same_queue)));
+  first = __shfl_sync(same_queue, first, leader);
+  return first + static_cast<u32>(__popc(same_queue & ((1u << lane) - 1u)));
+#else
+  return atomic_fetch_add(counter, 1);
+#endif
+}
+
 }  // namespace pt

@@ -97,9 +97,9 @@ PT_HD inline void wavefront_intersect(const SceneView<T>& scene, const Wavefront
     w.hit_b2[slot] = hit.b2;
     w.hit_primitive[slot] = hit.primitive;
     const u32 material_class = hit_material_class(scene, hit);
-    w.material_queue[material_class][atomic_fetch_add(w.counters + kCounterFirstMaterial + material_class, 1)] = slot;
+    w.material_queue[material_class][queue_push(w.counters + kCounterFirstMaterial + material_class)] = slot;
   } else {
-    w.escaped[atomic_fetch_add(w.counters + kCounterEscaped, 1)] = slot;
+    w.escaped[queue_push(w.counters + kCounterEscaped)] = slot;
   }
 }
 
@@ -121,7 +121,7 @@ PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView
   const SampleRandom random = wavefront_random(scene, w, item);
   const Hit<T> hit{w.hit_t[slot], w.hit_b1[slot], w.hit_b2[slot], w.hit_primitive[slot]};
   if (path_shade(scene, path, hit, random) && path.bounce < scene.params.max_depth)
-    w.next.store(atomic_fetch_add(w.counters + kCounterNextPaths, 1), path, item);
+    w.next.store(queue_push(w.counters + kCounterNextPaths), path, item);
   else
     wavefront_finish(w, path, item);
 }

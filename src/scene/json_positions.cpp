@@ -40,6 +40,8 @@ class CountingIterator {
   std::size_t* consumed_;
 };
 
+}  // namespace
+
 std::string escape_pointer_token(const std::string& token) {
   std::string out;
   for (char c : token) {
@@ -49,6 +51,8 @@ std::string escape_pointer_token(const std::string& token) {
   }
   return out;
 }
+
+namespace {
 
 class PositionRecorder : public nlohmann::json_sax<nlohmann::json> {
  public:
@@ -110,7 +114,8 @@ class PositionRecorder : public nlohmann::json_sax<nlohmann::json> {
     while (i > 0 && text_[i - 1] != bracket) --i;
     return i > 0 ? i - 1 : 0;
   }
-  void record(std::size_t offset) { offsets_->emplace(pointer(), offset); }
+  // A key given twice keeps its last value (nlohmann's rule), so its last position is the one to report.
+  void record(std::size_t offset) { (*offsets_)[pointer()] = offset; }
   bool value() {
     record(start_of_scalar());
     advance();

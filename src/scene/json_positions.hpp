@@ -13,6 +13,9 @@ struct TextPosition {
   std::size_t line = 0, column = 0;  // 1-based; 0 when unknown
 };
 
+// A key as a JSON-pointer token: '~' becomes "~0" and '/' becomes "~1" (RFC 6901).
+std::string escape_pointer_token(const std::string& token);
+
 class JsonPositions {
  public:
   // Records positions for a text that nlohmann::json accepts; for other texts the map stays partial.

@@ -95,7 +95,7 @@ class Node {
 
   bool has(const char* key) const { return value_.is_object() && value_.contains(key); }
 
-  Node child(const std::string& key) const { return Node(value_.at(key), pointer_ + "/" + key, document_); }
+  Node child(const std::string& key) const { return Node(value_.at(key), pointer_ + "/" + escape_pointer_token(key), document_); }
 
   Node at(const char* key) const {
     expect_object();
@@ -136,8 +136,13 @@ class Node {
       if (value_.is_number_float()) fail("expected an integer, found a fractional number");
       fail(fmt::format("expected an integer, found {}", type_name(value_)));
     }
-    if (value_.is_number_integer() && value_.get<std::int64_t>() < 0 && lo == 0) fail(fmt::format("must not be negative, found {}", value_.get<std::int64_t>()));
+    if (value_.is_number_unsigned()) {
+      const u64 v = value_.get<u64>();
+      if (v < lo || v > hi) fail(fmt::format("{} is outside the allowed range [{}, {}]", v, lo, hi));
+      return static_cast<u32>(v);
+    }
     const std::int64_t v = value_.get<std::int64_t>();
+    if (v < 0 && lo == 0) fail(fmt::format("must not be negative, found {}", v));
     if (v < static_cast<std::int64_t>(lo) || static_cast<u64>(v) > hi) fail(fmt::format("{} is outside the allowed range [{}, {}]", v, lo, hi));
     return static_cast<u32>(v);
   }
@@ -482,8 +487,10 @@ SceneDescription parse_scene(std::string_view text, const std::string& source, c
   } catch (const Json::parse_error& e) {
     const TextPosition at = JsonPositions::position_of_offset(text, e.byte > 0 ? e.byte - 1 : 0);
     std::string what = e.what();
-    // nlohmann's message starts with its own error id and position: keep only the description.
-    if (const auto colon = what.find("error: "); colon != std::string::npos) what = what.substr(colon + 7);
+    // nlohmann's message starts with its own error id and position ("[json.exception.parse_error.101] parse error
+    // at line 8, column 55: "): keep only the description, the position is already in front.
+    if (const auto column = what.find(", column "); column != std::string::npos)
+      if (const auto colon = what.find(": ", column); colon != std::string::npos) what = what.substr(colon + 2);
     throw InputError(fmt::format("{}:{}:{}: invalid JSON: {}", source, at.line, at.column, what));
   } catch (const Json::exception& e) {
     // Other parser failures, such as a number too large for a double ("1e999").
@@ -501,6 +508,8 @@ SceneDescription parse_scene(std::string_view text, const std::string& source, c
 }
 
 SceneDescription load_scene_file(const std::filesystem::path& file) {
+  std::error_code error;
+  if (std::filesystem::is_directory(file, error)) throw InputError(fmt::format("{}: is a folder, not a scene file", file.string()));
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError(fmt::format("{}: cannot open the scene file", file.string()));
   std::ostringstream text;

@@ -47,6 +47,7 @@ if [[ $steps == *bench* ]]; then
   bench book2-final 800 800 1000 3
   bench cornell-box 600 600 1000 3
   bench seed-default 800 480 100 5
+  bench tiny 640 480 256 5
 fi
 
 if [[ $steps == *profile* ]]; then

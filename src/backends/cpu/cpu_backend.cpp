@@ -5,6 +5,7 @@
 
 #include <array>
 #include <chrono>
+#include <atomic>
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
@@ -14,6 +15,7 @@
 #include <tbb/task_arena.h>
 
 #include "backends/wavefront_schedule.hpp"
+#include "flat/number_formats.hpp"
 
 namespace pt {
 
@@ -123,6 +125,7 @@ class CpuBackend final : public RenderBackend<T> {
     scene_ = scene;
     view_ = scene_.view();
     film_.assign(static_cast<std::size_t>(scene.params.width) * scene.params.height, FilmPixel{});
+    saturations_ = 0;
     wavefront_.reset();
     if (integrator_ == Integrator::kWavefront) {
       const u32 pixels = scene.params.width * scene.params.height;
@@ -148,14 +151,20 @@ class CpuBackend final : public RenderBackend<T> {
     FilmPixel* film = film_.data();
     arena_.execute([&] {
       tbb::parallel_for(tbb::blocked_range2d<u32>(0, height, 8, 0, width, 8), [&](const tbb::blocked_range2d<u32>& tile) {
+        // Kernels count saturations per thread; a tile adds what its thread counted while rendering it.
+        [[maybe_unused]] u64 before = 0;
+        if constexpr (is_fixed_v<T>) before = fixed_saturations_this_thread();
         for (u32 y = tile.rows().begin(); y < tile.rows().end(); ++y)
           for (u32 x = tile.cols().begin(); x < tile.cols().end(); ++x)
             accumulate_pixel(view, x, y, first_sample, sample_count, film[static_cast<std::size_t>(y) * width + x]);
+        if constexpr (is_fixed_v<T>) saturations_.fetch_add(fixed_saturations_this_thread() - before, std::memory_order_relaxed);
       });
     });
   }
 
   void read_film(std::vector<FilmPixel>& pixels) override { pixels = film_; }
+
+  u64 saturations() const override { return saturations_.load(std::memory_order_relaxed); }
 
  private:
   unsigned threads_;
@@ -166,6 +175,7 @@ class CpuBackend final : public RenderBackend<T> {
   std::vector<FilmPixel> film_;
   std::unique_ptr<CpuWavefrontStages<T>> wavefront_;
   u32 samples_per_batch_ = 1;
+  std::atomic<u64> saturations_{0};
 };
 
 }  // namespace
@@ -177,5 +187,7 @@ std::unique_ptr<RenderBackend<T>> make_cpu_backend(unsigned threads, Integrator 
 
 template std::unique_ptr<RenderBackend<float>> make_cpu_backend<float>(unsigned, Integrator);
 template std::unique_ptr<RenderBackend<double>> make_cpu_backend<double>(unsigned, Integrator);
+#define PT_INSTANTIATE_FIXED_CPU_BACKEND(I, F) template std::unique_ptr<RenderBackend<Fixed<I, F>>> make_cpu_backend<Fixed<I, F>>(unsigned, Integrator);
+PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_CPU_BACKEND)
 
 }  // namespace pt
