@@ -9,6 +9,9 @@
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif
+#if PT_HAVE_SYCL
+#include "backends/sycl/sycl_backend.hpp"
+#endif
 
 namespace pt {
 
@@ -16,6 +19,9 @@ std::vector<std::string> backend_names() {
   std::vector<std::string> names{"cpu", "auto"};
 #if PT_HAVE_CUDA
   names.push_back("cuda");
+#endif
+#if PT_HAVE_SYCL
+  names.push_back("sycl");
 #endif
   return names;
 }
@@ -27,13 +33,24 @@ std::string backend_choices() {
 }
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator) {
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator,
+                                               int sycl_device) {
   if constexpr (is_fixed_v<T>) {
     // The GPU backends are built for float and double only: fixed-point formats are explored on the host.
     (void)device;
+    (void)sycl_device;
     if (name != "cpu" && name != "auto") throw BackendError(fmt::format("number format {} renders on the cpu backend only", number_format_name<T>()));
     return make_cpu_backend<T>(threads, integrator);
   } else {
+#if PT_HAVE_SYCL
+    if (name == "sycl") {
+      // The SYCL backend has the megakernel only; saying so beats silently rendering another way.
+      if (integrator == Integrator::kWavefront) throw BackendError("sycl: the wavefront integrator is not available on this backend");
+      return make_sycl_backend<T>(sycl_device);
+    }
+#else
+    (void)sycl_device;
+#endif
 #if PT_HAVE_CUDA
     if (name == "cuda") return make_cuda_backend<T>(device, integrator);
     if (name == "auto") {
@@ -51,10 +68,10 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
   }
 }
 
-template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator);
-template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator);
+template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator, int);
+template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator, int);
 #define PT_INSTANTIATE_FIXED_BACKEND(I, F) \
-  template std::unique_ptr<RenderBackend<Fixed<I, F>>> make_backend<Fixed<I, F>>(const std::string&, unsigned, int, Integrator);
+  template std::unique_ptr<RenderBackend<Fixed<I, F>>> make_backend<Fixed<I, F>>(const std::string&, unsigned, int, Integrator, int);
 PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_BACKEND)
 
 bool gpu_available() {
@@ -71,6 +88,11 @@ void list_devices() {
   list_cuda_devices();
 #else
   fmt::print("cuda: not built\n");
+#endif
+#if PT_HAVE_SYCL
+  list_sycl_devices();
+#else
+  fmt::print("sycl: not built\n");
 #endif
 }
 

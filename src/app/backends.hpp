@@ -12,10 +12,11 @@ namespace pt {
 std::vector<std::string> backend_names();
 std::string backend_choices();
 
-// "cpu", "cuda" or "auto" (the GPU when one is usable, else the CPU; says which on stderr).
+// "cpu", "cuda", "sycl" or "auto" (the CUDA GPU when one is usable, else the CPU; says which on stderr).
+// `device` is the CUDA GPU; `sycl_device` indexes the SYCL devices (negative: the runtime's default choice).
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device,
-                                               Integrator integrator = Integrator::kMegakernel);
+                                               Integrator integrator = Integrator::kMegakernel, int sycl_device = -1);
 
 // Whether a GPU backend is built and finds a usable device.
 bool gpu_available();

@@ -35,6 +35,7 @@ struct RenderOptions {
   unsigned threads = 0;
   std::string backend = "cpu";
   int device = 0;
+  int sycl_device = -1;  // SYCL device index; negative: the runtime's default choice
   std::string number_format = "float";
   std::string integrator = "auto";
   bool quiet = false;
@@ -77,7 +78,8 @@ void draw_progress(const Progress& p) {
 template <class T>
 int render_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
   const FlatScene<T> flat = flatten_scene<T>(scene, settings);
-  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options));
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
+                                                              options.sycl_device);
   const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
   if (!options.quiet) {
     fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
@@ -119,7 +121,8 @@ int run_render(const RenderOptions& options) {
 template <class T>
 int bench_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
   const FlatScene<T> flat = flatten_scene<T>(scene, settings);
-  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options));
+  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
+                                                              options.sycl_device);
   {
     // Warm-up: module loading, first-touch of memory, thread start-up stay out of the timed runs.
     FlatScene<T> warm = flat;
@@ -179,6 +182,8 @@ int main(int argc, char** argv) {
     command->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
     command->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
     command->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
+    command->add_option("--sycl-device", options.sycl_device, "Device index for the sycl backend (see `pathtracer devices`; default: the runtime's choice)")
+        ->check(CLI::NonNegativeNumber);
     command->add_option("--integrator", options.integrator, "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
         ->check(CLI::IsMember({"auto", "megakernel", "wavefront"}))
         ->capture_default_str();

@@ -1,0 +1,243 @@
+// The SYCL backend: a thin host layer over standard SYCL 2020 (USM device allocations, an in-order queue, a
+// parallel_for over the image per sample) running the shared kernel headers. Compiled by a SYCL compiler only.
+#include "backends/sycl/sycl_backend.hpp"
+
+#include <sycl/sycl.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "kernel/integrator.hpp"
+
+namespace pt {
+
+namespace {
+
+// Runtime messages may span several lines; an error of this program is one line.
+std::string one_line(const std::string& text) {
+  std::string out;
+  bool pending_break = false;
+  for (const char c : text) {
+    if (c == '\n' || c == '\r') {
+      pending_break = !out.empty();
+      continue;
+    }
+    if (pending_break) out += "; ";
+    pending_break = false;
+    out += c;
+  }
+  return out;
+}
+
+std::string describe(const sycl::device& device) {
+  const char* kind = device.is_gpu() ? "gpu" : device.is_cpu() ? "cpu" : device.is_accelerator() ? "accelerator" : "device";
+  std::string text = fmt::format("{} ({}, {}; {} compute units", device.get_info<sycl::info::device::name>(), kind,
+                                 device.get_platform().get_info<sycl::info::platform::name>(),
+                                 device.get_info<sycl::info::device::max_compute_units>());
+  // Host devices may report no real limit (AdaptiveCpp's OpenMP device says 2^64 bytes); only a real size helps.
+  const double gib = static_cast<double>(device.get_info<sycl::info::device::global_mem_size>()) / 1073741824.0;
+  if (gib > 0 && gib < 1e6) text += fmt::format(", {:.1f} GiB", gib);
+  return text + ")";
+}
+
+// Runs one runtime call; a synchronous SYCL error becomes a BackendError naming what was being done.
+template <class F>
+auto guarded(const char* what, F&& body) {
+  try {
+    return body();
+  } catch (const sycl::exception& e) {
+    throw BackendError(fmt::format("sycl: {} failed: {}", what, one_line(e.what())));
+  }
+}
+
+// One USM device allocation, freed through the queue it was made on (which outlives it).
+class DeviceMemory {
+ public:
+  explicit DeviceMemory(sycl::queue& queue) : queue_(queue) {}
+  DeviceMemory(const DeviceMemory&) = delete;
+  DeviceMemory& operator=(const DeviceMemory&) = delete;
+  ~DeviceMemory() { release(); }
+
+  void* allocate(std::size_t bytes, const char* what) {
+    release();
+    // Never zero bytes: a null pointer would be indistinguishable from a failed allocation.
+    const std::size_t size = std::max<std::size_t>(bytes, 16);
+    pointer_ = guarded(what, [&] { return sycl::malloc_device(size, queue_); });
+    if (!pointer_) throw BackendError(fmt::format("sycl: {} failed: out of device memory ({} bytes)", what, size));
+    return pointer_;
+  }
+
+  template <class V>
+  const typename V::value_type* upload(const V& host, const char* what) {
+    const std::size_t bytes = host.size() * sizeof(typename V::value_type);
+    void* device = allocate(bytes, what);
+    if (bytes > 0) guarded(what, [&] { queue_.memcpy(device, host.data(), bytes).wait_and_throw(); });
+    return static_cast<const typename V::value_type*>(device);
+  }
+
+  void release() {
+    if (pointer_) sycl::free(pointer_, queue_);
+    pointer_ = nullptr;
+  }
+
+ private:
+  sycl::queue& queue_;
+  void* pointer_ = nullptr;
+};
+
+sycl::device pick_device(int index) {
+  if (index < 0) return guarded("choosing the default device", [] { return sycl::device(sycl::default_selector_v); });
+  const std::vector<sycl::device> devices = guarded("listing the devices", [] { return sycl::device::get_devices(); });
+  if (devices.empty()) throw BackendError("sycl: no device found");
+  if (static_cast<std::size_t>(index) >= devices.size())
+    throw BackendError(fmt::format("sycl: there is no device {} ({} found; see `pathtracer devices`)", index, devices.size()));
+  return devices[static_cast<std::size_t>(index)];
+}
+
+template <class T>
+class SyclBackend final : public RenderBackend<T> {
+ public:
+  explicit SyclBackend(int device_index)
+      : device_index_(device_index), device_(pick_device(device_index)), queue_(make_queue()), description_(describe(device_)) {
+    // The film sums samples in double whatever the scalar type, so a device without fp64 cannot run the kernel.
+    if (!device_.has(sycl::aspect::fp64))
+      throw BackendError(fmt::format("sycl: device {} ({}) has no double precision, which the film needs", device_index_,
+                                     device_.get_info<sycl::info::device::name>()));
+  }
+
+  std::string name() const override {
+    return fmt::format("sycl (device {}: {}, megakernel)", device_index_ < 0 ? std::string("default") : std::to_string(device_index_),
+                       description_);
+  }
+
+  void upload(const FlatScene<T>& scene) override {
+    view_ = SceneView<T>{nodes_.upload(scene.nodes, "copying the BVH"),
+                         primitives_.upload(scene.primitives, "copying the primitives"),
+                         boundaries_.upload(scene.boundaries, "copying the medium boundaries"),
+                         attributes_.upload(scene.triangle_attributes, "copying the triangle attributes"),
+                         materials_.upload(scene.materials, "copying the materials"),
+                         textures_.upload(scene.textures, "copying the textures"),
+                         // Every image texture's texels in one allocation; ImageTexture::offset says where each starts.
+                         TextureData<T>{texels_.upload(scene.texels, "copying the texels"),
+                                        gradients_.upload(scene.perlin_gradients, "copying the noise tables"),
+                                        permutations_.upload(scene.perlin_permutations, "copying the noise tables")},
+                         scene.camera,
+                         scene.background,
+                         scene.params};
+    pixels_ = static_cast<std::size_t>(scene.params.width) * scene.params.height;
+    film_ = static_cast<FilmPixel*>(film_memory_.allocate(pixels_ * sizeof(FilmPixel), "allocating the film"));
+    guarded("clearing the film", [&] { queue_.memset(film_, 0, pixels_ * sizeof(FilmPixel)); });
+    synchronise("clearing the film");
+    samples_per_batch_ = 1;
+  }
+
+  void render(u32 first_sample, u32 sample_count) override {
+    const SceneView<T> view = view_;
+    FilmPixel* const film = film_;
+    const u32 width = view.params.width;
+    const sycl::range<2> image(view.params.height, view.params.width);
+    u32 done = 0;
+    while (done < sample_count) {
+      const u32 count = std::min(samples_per_batch_, sample_count - done);
+      const auto start = std::chrono::steady_clock::now();
+      for (u32 s = first_sample + done; s < first_sample + done + count; ++s) {
+        // One sample per work item and launch, as in the CUDA backend: the launch boundary orders the samples
+        // of a pixel, so its sum is added in sample order and matches the CPU's.
+        guarded("launching the render kernel", [&] {
+          queue_.parallel_for(image, [=](sycl::item<2> item) {
+            const u32 x = static_cast<u32>(item.get_id(1)), y = static_cast<u32>(item.get_id(0));
+            accumulate_pixel(view, x, y, s, 1, film[static_cast<std::size_t>(y) * width + x]);
+          });
+        });
+      }
+      synchronise("running the render kernel");
+      done += count;
+      // Synchronise about every kBatchTargetSeconds: often enough for progress and error reports, rarely
+      // enough that a fast device is not left idle between launches.
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double per_sample = seconds / count;
+      const double wanted = per_sample > 0 ? kBatchTargetSeconds / per_sample : 2.0 * count;
+      samples_per_batch_ = static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
+    }
+  }
+
+  void read_film(std::vector<FilmPixel>& pixels) override {
+    pixels.resize(pixels_);
+    guarded("reading the film back", [&] { queue_.memcpy(pixels.data(), film_, pixels_ * sizeof(FilmPixel)); });
+    synchronise("reading the film back");
+  }
+
+ private:
+  static constexpr double kBatchTargetSeconds = 0.1;
+
+  // In order: every launch adds to the same film pixels, and USM carries no dependencies of its own.
+  // Asynchronous errors are collected by the handler and thrown as one line at the next synchronisation.
+  sycl::queue make_queue() {
+    return guarded("creating a queue", [&] {
+      return sycl::queue(device_, [this](sycl::exception_list errors) { collect(errors); },
+                         sycl::property_list{sycl::property::queue::in_order()});
+    });
+  }
+
+  void collect(const sycl::exception_list& errors) {
+    for (const std::exception_ptr& error : errors) {
+      try {
+        std::rethrow_exception(error);
+      } catch (const std::exception& e) {
+        async_errors_.push_back(one_line(e.what()));
+      } catch (...) {
+        async_errors_.push_back("unknown error");
+      }
+    }
+  }
+
+  // Waits for everything queued; a synchronous or asynchronous error becomes one BackendError line.
+  void synchronise(const char* what) {
+    guarded(what, [&] { queue_.wait_and_throw(); });
+    if (async_errors_.empty()) return;
+    std::string message = async_errors_.front();
+    if (async_errors_.size() > 1) message += fmt::format(" (and {} more)", async_errors_.size() - 1);
+    async_errors_.clear();
+    throw BackendError(fmt::format("sycl: {} failed: {}", what, message));
+  }
+
+  int device_index_;
+  sycl::device device_;
+  std::vector<std::string> async_errors_;
+  sycl::queue queue_;  // declared before the allocations, so it is destroyed after them
+  std::string description_;
+  DeviceMemory nodes_{queue_}, primitives_{queue_}, boundaries_{queue_}, attributes_{queue_}, materials_{queue_}, textures_{queue_},
+      texels_{queue_}, gradients_{queue_}, permutations_{queue_}, film_memory_{queue_};
+  SceneView<T> view_{};
+  FilmPixel* film_ = nullptr;
+  std::size_t pixels_ = 0;
+  u32 samples_per_batch_ = 1;
+};
+
+}  // namespace
+
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device) {
+  return std::make_unique<SyclBackend<T>>(device);
+}
+
+template std::unique_ptr<RenderBackend<float>> make_sycl_backend<float>(int);
+template std::unique_ptr<RenderBackend<double>> make_sycl_backend<double>(int);
+
+void list_sycl_devices() {
+  std::vector<sycl::device> devices;
+  try {
+    devices = sycl::device::get_devices();
+  } catch (const sycl::exception& e) {
+    fmt::print("sycl: no usable device ({})\n", one_line(e.what()));
+    return;
+  }
+  if (devices.empty()) fmt::print("sycl: no device\n");
+  for (std::size_t i = 0; i < devices.size(); ++i) fmt::print("sycl {}: {}\n", i, describe(devices[i]));
+}
+
+}  // namespace pt
