@@ -28,29 +28,6 @@ namespace {
 // With -DPT_CUDA_FMAD=OFF the differences shrink to the transcendental functions alone. A SYCL implementation
 // may differ from the CPU build for the same reasons (AdaptiveCpp's omp target matches it bit for bit; its
 // generic target JIT-compiles for the host CPU with fused multiply-adds), so the same bound applies.
-struct ImagePair {
-  double rmse = 0, mean_a = 0, mean_b = 0, close_fraction = 0;
-};
-
-ImagePair compare(const LinearImage& a, const LinearImage& b) {
-  ImagePair out;
-  double squared = 0;
-  std::size_t close = 0;
-  for (std::size_t i = 0; i < a.rgb.size(); ++i) {
-    const double d = static_cast<double>(a.rgb[i]) - b.rgb[i];
-    squared += d * d;
-    out.mean_a += a.rgb[i];
-    out.mean_b += b.rgb[i];
-    if (std::abs(d) <= 1e-3 * std::max(1.0, static_cast<double>(std::abs(a.rgb[i])))) ++close;
-  }
-  const double n = static_cast<double>(a.rgb.size());
-  out.rmse = std::sqrt(squared / n);
-  out.mean_a /= n;
-  out.mean_b /= n;
-  out.close_fraction = close / n;
-  return out;
-}
-
 LinearImage render_with(const std::string& backend, const SceneDescription& scene, const RenderSettings& settings) {
   const FlatScene<float> flat = flatten_scene<float>(scene, settings);
   auto renderer = make_backend<float>(backend, 0, 0);
@@ -71,8 +48,8 @@ void expect_parity_with_cpu(const std::string& backend, const std::string& scene
   other_seed.seed = 12;
   const LinearImage cpu_other = render_with("cpu", scene, other_seed);
 
-  const ImagePair same = compare(cpu, gpu);
-  const ImagePair independent = compare(cpu, cpu_other);
+  const test::ImagePair same = test::compare_images(cpu, gpu);
+  const test::ImagePair independent = test::compare_images(cpu, cpu_other);
   EXPECT_LE(same.rmse, 0.25 * independent.rmse) << "same-seed CPU and " << backend << " images should share nearly all samples";
   EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3));
   EXPECT_GE(same.close_fraction, 0.90);
@@ -101,12 +78,7 @@ TEST_P(BackendParity, SyclImageMatchesCpuImageForTheSameSeed) {
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, BackendParity,
                          ::testing::Values("tiny", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke"),
-                         [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string name = info.param;
-                           for (char& c : name)
-                             if (c == '-') c = '_';
-                           return name;
-                         });
+                         test::scene_test_name);
 
 }  // namespace
 }  // namespace pt

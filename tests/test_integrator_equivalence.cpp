@@ -74,34 +74,19 @@ TEST_P(IntegratorEquivalence, WavefrontMatchesMegakernelOnGpu) {
   RenderSettings other = settings;
   other.seed = settings.seed + 1;
   const LinearImage independent = render<float>("cuda", Integrator::kMegakernel, description, other).image;
-  double same = 0, apart = 0, mean_mega = 0, mean_wave = 0;
-  std::size_t close = 0;
-  for (std::size_t i = 0; i < mega.rgb.size(); ++i) {
-    const double d = static_cast<double>(mega.rgb[i]) - wave.rgb[i];
-    const double e = static_cast<double>(mega.rgb[i]) - independent.rgb[i];
-    same += d * d;
-    apart += e * e;
-    mean_mega += mega.rgb[i];
-    mean_wave += wave.rgb[i];
-    if (std::abs(d) <= 1e-3 * std::max(1.0, static_cast<double>(std::abs(mega.rgb[i])))) ++close;
-  }
-  const double n = static_cast<double>(mega.rgb.size());
-  std::printf("%s: wavefront-megakernel rmse %.3g vs other seed %.3g, channels within 1e-3: %.1f%%\n", GetParam().c_str(),
-              std::sqrt(same / n), std::sqrt(apart / n), 100 * close / n);
-  EXPECT_LE(std::sqrt(same / n), 0.25 * std::sqrt(apart / n));
-  EXPECT_NEAR(mean_mega / n, mean_wave / n, 5e-3 * std::max(mean_mega / n, 1e-3));
-  EXPECT_GE(close / n, 0.90);
+  const test::ImagePair same = test::compare_images(mega, wave);
+  const test::ImagePair apart = test::compare_images(mega, independent);
+  std::printf("%s: wavefront-megakernel rmse %.3g vs other seed %.3g, channels within 1e-3: %.1f%%\n", GetParam().c_str(), same.rmse,
+              apart.rmse, 100 * same.close_fraction);
+  EXPECT_LE(same.rmse, 0.25 * apart.rmse);
+  EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3));
+  EXPECT_GE(same.close_fraction, 0.90);
 #endif
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, IntegratorEquivalence,
                          ::testing::Values("tiny", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke"),
-                         [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string name = info.param;
-                           for (char& c : name)
-                             if (c == '-') c = '_';
-                           return name;
-                         });
+                         test::scene_test_name);
 
 }  // namespace
 }  // namespace pt

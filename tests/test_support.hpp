@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -297,6 +298,38 @@ inline std::vector<std::string> lines_of(const std::string& text) {
   std::istringstream in(text);
   for (std::string line; std::getline(in, line);) lines.push_back(line);
   return lines;
+}
+
+// How close two renders of the same scene are: RMSE, both means, and the share of channels within 1e-3 relative.
+struct ImagePair {
+  double rmse = 0, mean_a = 0, mean_b = 0, close_fraction = 0;
+};
+
+inline ImagePair compare_images(const LinearImage& a, const LinearImage& b) {
+  ImagePair out;
+  double squared = 0;
+  std::size_t close = 0;
+  for (std::size_t i = 0; i < a.rgb.size(); ++i) {
+    const double d = static_cast<double>(a.rgb[i]) - b.rgb[i];
+    squared += d * d;
+    out.mean_a += a.rgb[i];
+    out.mean_b += b.rgb[i];
+    if (std::abs(d) <= 1e-3 * std::max(1.0, static_cast<double>(std::abs(a.rgb[i])))) ++close;
+  }
+  const double n = static_cast<double>(a.rgb.size());
+  out.rmse = std::sqrt(squared / n);
+  out.mean_a /= n;
+  out.mean_b /= n;
+  out.close_fraction = close / n;
+  return out;
+}
+
+// A shipped scene's name as a test name ("book1-final" -> "book1_final").
+inline std::string scene_test_name(const ::testing::TestParamInfo<std::string>& info) {
+  std::string name = info.param;
+  for (char& c : name)
+    if (c == '-') c = '_';
+  return name;
 }
 
 }  // namespace pt::test
