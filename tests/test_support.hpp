@@ -16,13 +16,13 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "backends/cpu/cpu_backend.hpp"
+#include "backends/cpu/parallel_loop.hpp"
 #include "film/film.hpp"
 #include "flat/flat_scene.hpp"
 #include "image/image_io.hpp"
@@ -184,8 +184,8 @@ PixelStatistics sample_statistics(const FlatScene<T>& scene, u32 samples) {
   stats.variance.assign(3 * pixels, 0.0);
   std::atomic<u64> non_finite{0};
   const SceneView<T> view = scene.view();
-  tbb::parallel_for(tbb::blocked_range<u32>(0, stats.height), [&](const tbb::blocked_range<u32>& rows) {
-    for (u32 y = rows.begin(); y < rows.end(); ++y)
+  ParallelLoop loop(std::max(1u, std::thread::hardware_concurrency()));
+  loop.run(stats.height, 1, [&](u32 y) {
       for (u32 x = 0; x < stats.width; ++x) {
         double mean[3] = {0, 0, 0}, m2[3] = {0, 0, 0};
         u32 count = 0;

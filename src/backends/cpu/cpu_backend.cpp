@@ -8,12 +8,9 @@
 #include <atomic>
 
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/blocked_range2d.h>
-#include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "backends/cpu/parallel_loop.hpp"
 #include "backends/wavefront_schedule.hpp"
 #include "flat/number_formats.hpp"
 
@@ -37,8 +34,8 @@ struct HostPathPool {
 template <class T>
 class CpuWavefrontStages final : public WavefrontStages {
  public:
-  CpuWavefrontStages(tbb::task_arena& arena, const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch)
-      : arena_(arena), scene_(scene), film_(film), pools_{HostPathPool<T>(capacity), HostPathPool<T>(capacity)},
+  CpuWavefrontStages(ParallelLoop& loop, const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch)
+      : loop_(loop), scene_(scene), film_(film), pools_{HostPathPool<T>(capacity), HostPathPool<T>(capacity)},
         hit_t_(capacity), hit_b1_(capacity), hit_b2_(capacity), hit_primitive_(capacity), escaped_(capacity),
         results_(static_cast<std::size_t>(scene.params.width) * scene.params.height * samples_per_batch) {
     for (auto& q : material_queues_) q.resize(capacity);
@@ -85,16 +82,11 @@ class CpuWavefrontStages final : public WavefrontStages {
   template <class F>
   void timed(int stage, u32 count, const F& body) {
     const auto start = std::chrono::steady_clock::now();
-    if (count > 0)
-      arena_.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<u32>(0, count, 256), [&](const tbb::blocked_range<u32>& r) {
-          for (u32 i = r.begin(); i < r.end(); ++i) body(i);
-        });
-      });
+    loop_.run(count, 256, body);
     seconds_[stage] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
-  tbb::task_arena& arena_;
+  ParallelLoop& loop_;
   const SceneView<T>& scene_;
   FilmPixel* film_;
   HostPathPool<T> pools_[2];
@@ -114,7 +106,7 @@ class CpuBackend final : public RenderBackend<T> {
   CpuBackend(unsigned threads, Integrator integrator)
       : threads_(threads == 0 ? static_cast<unsigned>(tbb::this_task_arena::max_concurrency()) : threads),
         integrator_(integrator),
-        arena_(static_cast<int>(threads_)) {}
+        loop_(threads_) {}
 
   std::string name() const override {
     return fmt::format("cpu ({} thread{}, {})", threads_, threads_ == 1 ? "" : "s",
@@ -130,7 +122,7 @@ class CpuBackend final : public RenderBackend<T> {
     if (integrator_ == Integrator::kWavefront) {
       const u32 pixels = scene.params.width * scene.params.height;
       samples_per_batch_ = wavefront_samples_per_batch(pixels, kCpuWavefrontPool);
-      wavefront_ = std::make_unique<CpuWavefrontStages<T>>(arena_, view_, film_.data(), kCpuWavefrontPool, samples_per_batch_);
+      wavefront_ = std::make_unique<CpuWavefrontStages<T>>(loop_, view_, film_.data(), kCpuWavefrontPool, samples_per_batch_);
     }
   }
 
@@ -149,16 +141,17 @@ class CpuBackend final : public RenderBackend<T> {
     const SceneView<T> view = view_;
     const u32 width = scene_.params.width, height = scene_.params.height;
     FilmPixel* film = film_.data();
-    arena_.execute([&] {
-      tbb::parallel_for(tbb::blocked_range2d<u32>(0, height, 8, 0, width, 8), [&](const tbb::blocked_range2d<u32>& tile) {
-        // Kernels count saturations per thread; a tile adds what its thread counted while rendering it.
-        [[maybe_unused]] u64 before = 0;
-        if constexpr (is_fixed_v<T>) before = fixed_saturations_this_thread();
-        for (u32 y = tile.rows().begin(); y < tile.rows().end(); ++y)
-          for (u32 x = tile.cols().begin(); x < tile.cols().end(); ++x)
-            accumulate_pixel(view, x, y, first_sample, sample_count, film[static_cast<std::size_t>(y) * width + x]);
-        if constexpr (is_fixed_v<T>) saturations_.fetch_add(fixed_saturations_this_thread() - before, std::memory_order_relaxed);
-      });
+    // 8x8 tiles: each pixel belongs to one tile, rendered by one thread, in sample order.
+    const u32 tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
+    loop_.run(tiles_x * tiles_y, 1, [&](u32 tile) {
+      const u32 x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+      // Kernels count saturations per thread; a tile adds what its thread counted while rendering it.
+      [[maybe_unused]] u64 before = 0;
+      if constexpr (is_fixed_v<T>) before = fixed_saturations_this_thread();
+      for (u32 y = y0; y < std::min(height, y0 + kTile); ++y)
+        for (u32 x = x0; x < std::min(width, x0 + kTile); ++x)
+          accumulate_pixel(view, x, y, first_sample, sample_count, film[static_cast<std::size_t>(y) * width + x]);
+      if constexpr (is_fixed_v<T>) saturations_.fetch_add(fixed_saturations_this_thread() - before, std::memory_order_relaxed);
     });
   }
 
@@ -169,7 +162,8 @@ class CpuBackend final : public RenderBackend<T> {
  private:
   unsigned threads_;
   Integrator integrator_;
-  tbb::task_arena arena_;
+  static constexpr u32 kTile = 8;
+  ParallelLoop loop_;
   FlatScene<T> scene_;
   SceneView<T> view_{};
   std::vector<FilmPixel> film_;

@@ -1,0 +1,53 @@
+// The CPU backend's one parallel primitive: body(i) for every i in [0, count), `grain` indices at a time, on a
+// fixed number of threads. oneTBB's work-stealing scheduler in normal builds; plain std::threads taking chunks
+// from an atomic counter in ThreadSanitizer builds, because Debian's libtbb is not instrumented and ThreadSanitizer
+// cannot see its synchronisation (every render would be reported as a race).
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <thread>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "kernel/platform.hpp"
+
+namespace pt {
+
+class ParallelLoop {
+ public:
+  explicit ParallelLoop(unsigned threads) : threads_(threads), arena_(static_cast<int>(threads)) {}
+
+  unsigned threads() const { return threads_; }
+
+  template <class F>
+  void run(u32 count, u32 grain, const F& body) {
+    if (count == 0) return;
+#if PT_CPU_STD_THREADS
+    std::atomic<u32> next{0};
+    auto worker = [&] {
+      for (u32 first = next.fetch_add(grain); first < count; first = next.fetch_add(grain))
+        for (u32 i = first; i < std::min(count, first + grain); ++i) body(i);
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads_; ++t) pool.emplace_back(worker);
+    worker();
+    for (std::thread& t : pool) t.join();
+#else
+    arena_.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<u32>(0, count, grain), [&](const tbb::blocked_range<u32>& r) {
+        for (u32 i = r.begin(); i < r.end(); ++i) body(i);
+      });
+    });
+#endif
+  }
+
+ private:
+  unsigned threads_;
+  tbb::task_arena arena_;
+};
+
+}  // namespace pt
