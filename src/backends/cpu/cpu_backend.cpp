@@ -72,7 +72,6 @@ class CpuWavefrontStages final : public WavefrontStages {
     current_ ^= 1;
     point_pools();
   }
-  const std::array<double, kWavefrontStageNames.size()>& seconds() const { return seconds_; }
 
  private:
   void point_pools() {
@@ -97,7 +96,6 @@ class CpuWavefrontStages final : public WavefrontStages {
   std::array<u32, kWavefrontCounters> counters_{};
   std::vector<SampleResult<T>> results_;
   WavefrontView<T> view_{};
-  std::array<double, kWavefrontStageNames.size()> seconds_{};
 };
 
 template <class T>
@@ -127,10 +125,7 @@ class CpuBackend final : public RenderBackend<T> {
   }
 
   std::vector<std::pair<std::string, double>> stage_seconds() const override {
-    std::vector<std::pair<std::string, double>> out;
-    if (wavefront_)
-      for (std::size_t i = 0; i < kWavefrontStageNames.size(); ++i) out.emplace_back(kWavefrontStageNames[i], wavefront_->seconds()[i]);
-    return out;
+    return wavefront_ ? wavefront_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
   }
 
   void render(u32 first_sample, u32 sample_count) override {

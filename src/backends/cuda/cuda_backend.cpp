@@ -109,7 +109,6 @@ class CudaWavefrontStages final : public WavefrontStages {
     current_ ^= 1;
     point_pools();
   }
-  const std::array<double, kWavefrontStageNames.size()>& seconds() const { return seconds_; }
 
  private:
   template <class U>
@@ -161,7 +160,6 @@ class CudaWavefrontStages final : public WavefrontStages {
   std::vector<void*> allocations_;
   std::vector<Timing> timings_;
   size_t pending_ = 0;
-  std::array<double, kWavefrontStageNames.size()> seconds_{};
 };
 
 template <class T>
@@ -188,10 +186,7 @@ class CudaBackend final : public RenderBackend<T> {
   }
 
   std::vector<std::pair<std::string, double>> stage_seconds() const override {
-    std::vector<std::pair<std::string, double>> out;
-    if (wavefront_)
-      for (std::size_t i = 0; i < kWavefrontStageNames.size(); ++i) out.emplace_back(kWavefrontStageNames[i], wavefront_->seconds()[i]);
-    return out;
+    return wavefront_ ? wavefront_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
   }
 
   void upload(const FlatScene<T>& scene) override {
@@ -224,8 +219,7 @@ class CudaBackend final : public RenderBackend<T> {
   void render(u32 first_sample, u32 sample_count) override {
     if (wavefront_) {
       run_wavefront(*wavefront_, view_.params.width * view_.params.height, kCudaWavefrontPool, wavefront_batch_, first_sample, sample_count);
-      device_seconds_ = 0;
-      for (double s : wavefront_->seconds()) device_seconds_ += s;
+      device_seconds_ = wavefront_->total_seconds();
       return;
     }
     const dim3 block(kBlockWidth, kBlockHeight);
