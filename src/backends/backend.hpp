@@ -2,6 +2,7 @@
 // range of samples into the film it keeps, read the film back.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <string>
@@ -40,6 +41,15 @@ class RenderBackend {
   // Fixed-point saturation events since the last upload; 0 where the backend does not count them (GPUs).
   virtual u64 saturations() const { return 0; }
 };
+
+// Samples for the next synchronised batch of a device backend, so that a batch takes about target_seconds: often
+// enough for progress and error reports, rarely enough that a fast device is not left idle between batches.
+// `seconds` is what the last batch of `count` samples took; the size at most doubles from one batch to the next.
+inline u32 next_batch_samples(double seconds, u32 count, double target_seconds) {
+  const double per_sample = seconds / count;
+  const double wanted = per_sample > 0 ? target_seconds / per_sample : 2.0 * count;
+  return static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
+}
 
 // How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront).
 enum class Integrator { kMegakernel, kWavefront };

@@ -235,11 +235,8 @@ class CudaBackend final : public RenderBackend<T> {
       check(cudaEventElapsedTime(&milliseconds, start_, stop_), "timing the render kernel");
       device_seconds_ += milliseconds * 1e-3;
       done += count;
-      // Synchronise about every kBatchTargetMs: often enough for progress and error reports; each launch inside a
-      // batch is one sample, far below any display watchdog's limit.
-      const double per_sample = milliseconds / count;
-      const double wanted = per_sample > 0 ? kBatchTargetMs / per_sample : 2.0 * count;
-      samples_per_batch_ = static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
+      // Each launch inside a batch is one sample, far below any display watchdog's limit.
+      samples_per_batch_ = next_batch_samples(milliseconds * 1e-3, count, kBatchTargetSeconds);
     }
   }
 
@@ -252,7 +249,7 @@ class CudaBackend final : public RenderBackend<T> {
 
  private:
   static constexpr u32 kBlockWidth = 16, kBlockHeight = 8;
-  static constexpr double kBatchTargetMs = 100.0;
+  static constexpr double kBatchTargetSeconds = 0.1;
 
   int device_;
   Integrator integrator_;

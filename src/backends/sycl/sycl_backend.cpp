@@ -156,12 +156,8 @@ class SyclBackend final : public RenderBackend<T> {
       }
       synchronise("running the render kernel");
       done += count;
-      // Synchronise about every kBatchTargetSeconds: often enough for progress and error reports, rarely
-      // enough that a fast device is not left idle between launches.
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      const double per_sample = seconds / count;
-      const double wanted = per_sample > 0 ? kBatchTargetSeconds / per_sample : 2.0 * count;
-      samples_per_batch_ = static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
+      samples_per_batch_ = next_batch_samples(seconds, count, kBatchTargetSeconds);
     }
   }
 
