@@ -34,6 +34,25 @@ struct FlatScene {
   std::size_t bytes() const;
 };
 
+// The one list of a flat scene's arrays: `place(array, what)` puts each array where the kernels will read it and
+// returns its address there (the host array itself on the CPU, a device copy on a GPU); `what` names it for errors.
+// The arrays are placed in the order written here (a braced list is evaluated left to right).
+template <class T, class Place>
+SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
+  return SceneView<T>{place(scene.nodes, "copying the BVH"),
+                      place(scene.primitives, "copying the primitives"),
+                      place(scene.boundaries, "copying the medium boundaries"),
+                      place(scene.triangle_attributes, "copying the triangle attributes"),
+                      place(scene.materials, "copying the materials"),
+                      place(scene.textures, "copying the textures"),
+                      // Every image texture's texels in one array; ImageTexture::offset says where each starts.
+                      TextureData<T>{place(scene.texels, "copying the texels"), place(scene.perlin_gradients, "copying the noise tables"),
+                                     place(scene.perlin_permutations, "copying the noise tables")},
+                      scene.camera,
+                      scene.background,
+                      scene.params};
+}
+
 // Everything kernels read is copied to devices byte for byte.
 static_assert(std::is_trivially_copyable_v<Primitive<float>>);
 static_assert(std::is_trivially_copyable_v<Material<float>>);

@@ -349,9 +349,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
 
 template <class T>
 SceneView<T> FlatScene<T>::view() const {
-  return SceneView<T>{nodes.data(),     primitives.data(), boundaries.data(), triangle_attributes.data(),
-                      materials.data(), textures.data(),   TextureData<T>{texels.data(), perlin_gradients.data(), perlin_permutations.data()},
-                      camera,           background,        params};
+  return place_scene(*this, [](const auto& array, const char*) { return array.data(); });
 }
 
 template <class T>

@@ -6,6 +6,7 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <deque>
 #include <cstdio>
 
 #include <fmt/format.h>
@@ -191,18 +192,8 @@ class CudaBackend final : public RenderBackend<T> {
 
   void upload(const FlatScene<T>& scene) override {
     check(cudaSetDevice(device_), "selecting the GPU");
-    view_ = SceneView<T>{nodes_.upload(scene.nodes, "copying the BVH"),
-                         primitives_.upload(scene.primitives, "copying the primitives"),
-                         boundaries_.upload(scene.boundaries, "copying the medium boundaries"),
-                         attributes_.upload(scene.triangle_attributes, "copying the triangle attributes"),
-                         materials_.upload(scene.materials, "copying the materials"),
-                         textures_.upload(scene.textures, "copying the textures"),
-                         TextureData<T>{texels_.upload(scene.texels, "copying the texels"),
-                                        gradients_.upload(scene.perlin_gradients, "copying the noise tables"),
-                                        permutations_.upload(scene.perlin_permutations, "copying the noise tables")},
-                         scene.camera,
-                         scene.background,
-                         scene.params};
+    scene_buffers_.clear();
+    view_ = place_scene(scene, [&](const auto& array, const char* what) { return scene_buffers_.emplace_back().upload(array, what); });
     pixels_ = static_cast<size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(film_buffer_.allocate(pixels_ * sizeof(FilmPixel), "allocating the film"));
     check(cudaMemset(film_, 0, pixels_ * sizeof(FilmPixel)), "clearing the film");
@@ -257,7 +248,8 @@ class CudaBackend final : public RenderBackend<T> {
   u32 wavefront_batch_ = 1;
   cudaDeviceProp properties_{};
   cudaEvent_t start_ = nullptr, stop_ = nullptr;
-  DeviceBuffer nodes_, primitives_, boundaries_, attributes_, materials_, textures_, texels_, gradients_, permutations_, film_buffer_;
+  std::deque<DeviceBuffer> scene_buffers_;  // one per scene array (deque: buffers do not move)
+  DeviceBuffer film_buffer_;
   SceneView<T> view_{};
   FilmPixel* film_ = nullptr;
   size_t pixels_ = 0;

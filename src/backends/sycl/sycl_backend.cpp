@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -115,19 +116,8 @@ class SyclBackend final : public RenderBackend<T> {
   }
 
   void upload(const FlatScene<T>& scene) override {
-    view_ = SceneView<T>{nodes_.upload(scene.nodes, "copying the BVH"),
-                         primitives_.upload(scene.primitives, "copying the primitives"),
-                         boundaries_.upload(scene.boundaries, "copying the medium boundaries"),
-                         attributes_.upload(scene.triangle_attributes, "copying the triangle attributes"),
-                         materials_.upload(scene.materials, "copying the materials"),
-                         textures_.upload(scene.textures, "copying the textures"),
-                         // Every image texture's texels in one allocation; ImageTexture::offset says where each starts.
-                         TextureData<T>{texels_.upload(scene.texels, "copying the texels"),
-                                        gradients_.upload(scene.perlin_gradients, "copying the noise tables"),
-                                        permutations_.upload(scene.perlin_permutations, "copying the noise tables")},
-                         scene.camera,
-                         scene.background,
-                         scene.params};
+    scene_memory_.clear();
+    view_ = place_scene(scene, [&](const auto& array, const char* what) { return scene_memory_.emplace_back(queue_).upload(array, what); });
     pixels_ = static_cast<std::size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(film_memory_.allocate(pixels_ * sizeof(FilmPixel), "allocating the film"));
     guarded("clearing the film", [&] { queue_.memset(film_, 0, pixels_ * sizeof(FilmPixel)); });
@@ -206,8 +196,8 @@ class SyclBackend final : public RenderBackend<T> {
   std::vector<std::string> async_errors_;
   sycl::queue queue_;  // declared before the allocations, so it is destroyed after them
   std::string description_;
-  DeviceMemory nodes_{queue_}, primitives_{queue_}, boundaries_{queue_}, attributes_{queue_}, materials_{queue_}, textures_{queue_},
-      texels_{queue_}, gradients_{queue_}, permutations_{queue_}, film_memory_{queue_};
+  std::deque<DeviceMemory> scene_memory_;  // one per scene array (deque: allocations do not move)
+  DeviceMemory film_memory_{queue_};
   SceneView<T> view_{};
   FilmPixel* film_ = nullptr;
   std::size_t pixels_ = 0;
