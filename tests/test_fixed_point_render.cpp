@@ -57,10 +57,13 @@ TEST(FixedPointRender, Q16_16RendersTheScaledScene) {
   EXPECT_GE(psnr(render<Fixed<16, 16>>(scene, settings).image, render<float>(scene, settings).image), 20.0);
 }
 
-// The tiny scene's quads need w = 1 / area far beyond Q10.10's range once the scene is scaled to fit.
+// A 0.01-unit quad beside a 1000-unit sphere: fitting the sphere's squared distances into Q10.10 scales the scene
+// by 1/256, which makes the quad's dual edges (1 / its edge length) about 25600, far beyond Q10.10's 511.
 TEST(FixedPointRender, SceneThatDoesNotFitIsRefused) {
   RenderSettings settings;
-  const SceneDescription scene = tiny_scene(settings);
+  SceneDescription scene = tiny_scene(settings);
+  scene.objects.push_back(SceneObject{Sphere<double>{{0, -1000, 0}, 1000}, {}, 0});
+  scene.objects.push_back(SceneObject{QuadSettings{{0, 0, 0}, {0.01, 0, 0}, {0, 0.01, 0}}, {}, 0});
   try {
     flatten_scene<Fixed<10, 10>>(scene, settings);
     FAIL() << "expected InputError";
@@ -69,14 +72,17 @@ TEST(FixedPointRender, SceneThatDoesNotFitIsRefused) {
     EXPECT_NE(message.find("tiny.json"), std::string::npos) << message;
     EXPECT_NE(message.find("does not fit q10.10"), std::string::npos) << message;
   }
+  using Q10_10 = Fixed<10, 10>;
+  EXPECT_NO_THROW(flatten_scene<Q10_10>(tiny_scene(settings), settings));
 }
 
-// Q24.8's reciprocals of near-axis ray directions overflow in the BVH slab test: those events are counted.
+// Scaled by 1/16 for Q12.12, the tiny scene's triangle has edges of about 0.05: their cross product's squared
+// length falls below one step, so normalising the geometric normal divides by zero. Those events are counted.
 TEST(FixedPointRender, SaturationsReachTheStatistics) {
   RenderSettings settings;
   const SceneDescription scene = tiny_scene(settings);
-  using Q24_8 = Fixed<24, 8>;
-  EXPECT_GT(render<Q24_8>(scene, settings).stats.saturations, 0u);
+  using Q12_12 = Fixed<12, 12>;
+  EXPECT_GT(render<Q12_12>(scene, settings).stats.saturations, 0u);
   EXPECT_EQ(render<float>(scene, settings).stats.saturations, 0u);
 }
 

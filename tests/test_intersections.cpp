@@ -6,6 +6,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "kernel/fixed_point.hpp"
 #include "test_support.hpp"
 
 namespace pt {
@@ -24,9 +25,10 @@ Ray<T> make_ray(const Vec3d& origin, const Vec3d& direction, double time = 0) {
 }
 
 template <class T>
-Quad<T> make_quad(const Vec3d& corner, const Vec3d& u, const Vec3d& v) {
-  const Vec3d n = cross(u, v);
-  return Quad<T>{to<T>(corner), to<T>(u), to<T>(v), to<T>(n / dot(n, n))};
+Quad<T> make_test_quad(const Vec3d& corner, const Vec3d& u, const Vec3d& v) {
+  // Made in double and converted, as flatten_scene does (|u x v|^2 may exceed a fixed format).
+  const Quad<double> q = make_quad(corner, u, v);
+  return Quad<T>{to<T>(q.corner), to<T>(q.normal), to<T>(q.du), to<T>(q.dv)};
 }
 
 template <class T>
@@ -377,7 +379,7 @@ TYPED_TEST(TriangleIntersection, ShadingNormalStaysOnTheGeometricSide) {
 
 TYPED_TEST(QuadIntersection, HitGivesQuadCoordinatesAndNormal) {
   using T = TypeParam;
-  const Shape<T> quad = make_quad<T>({-1, -1, -3}, {2, 0, 0}, {0, 2, 0});
+  const Shape<T> quad = make_test_quad<T>({-1, -1, -3}, {2, 0, 0}, {0, 2, 0});
   Hit<T> hit;
   SurfacePoint<T> at;
   ASSERT_TRUE(hit_shape(quad, make_ray<T>({0.5, -0.5, 0}, {0, 0, -1}), 0.001, 1e30, hit, at));
@@ -400,7 +402,7 @@ TYPED_TEST(QuadIntersection, HitGivesQuadCoordinatesAndNormal) {
 TYPED_TEST(QuadIntersection, SkewedQuadCoordinatesSolveCornerPlusAUPlusBV) {
   using T = TypeParam;
   const Vec3d corner{0.5, -1, 2}, u{2, 1, 0}, v{0.5, 0.5, 3};
-  const Shape<T> quad = make_quad<T>(corner, u, v);
+  const Shape<T> quad = make_test_quad<T>(corner, u, v);
   const Vec3d target = corner + 0.3 * u + 0.8 * v;
   const Vec3d origin{4, 5, -1};
   Hit<T> hit;
@@ -414,7 +416,7 @@ TYPED_TEST(QuadIntersection, SkewedQuadCoordinatesSolveCornerPlusAUPlusBV) {
 
 TYPED_TEST(QuadIntersection, OutsideParallelAndOutOfRangeRaysMiss) {
   using T = TypeParam;
-  const Shape<T> quad = make_quad<T>({-1, -1, -3}, {2, 0, 0}, {0, 2, 0});
+  const Shape<T> quad = make_test_quad<T>({-1, -1, -3}, {2, 0, 0}, {0, 2, 0});
   Hit<T> hit;
   SurfacePoint<T> at;
   EXPECT_FALSE(hit_shape(quad, make_ray<T>({1.001, 0, 0}, {0, 0, -1}), 0.001, 1e30, hit, at));
@@ -423,6 +425,29 @@ TYPED_TEST(QuadIntersection, OutsideParallelAndOutOfRangeRaysMiss) {
   EXPECT_FALSE(hit_shape(quad, make_ray<T>({0, 0, 0}, {0, 0, -1}), 0.001, 3.0, hit, at));
   EXPECT_FALSE(hit_shape(quad, make_ray<T>({0, 0, 0}, {0, 0, -1}), 3.0, 1e30, hit, at));
   EXPECT_TRUE(hit_shape(quad, make_ray<T>({0, 0, 0}, {0, 0, -1}), 2.99, 3.01, hit, at));
+}
+
+// A Cornell-box wall (555 units square) seen from 800 units away in Q32.32: the quad stores its unit normal and
+// dual edges (sizes 1 and 1/555), not (u x v) / |u x v|^2 (about 3e-6, of which Q32.32 keeps only 14 bits), so the
+// hit distance and quad coordinates keep nearly the format's full precision.
+TEST(QuadIntersectionInFixedPoint, LargeQuadHitIsPreciseInQ32_32) {
+  using T = Fixed<32, 32>;
+  const Vec3d corner{0, 0, 555}, u{555, 0, 0}, v{0, 555, 0};
+  const Shape<T> quad = make_test_quad<T>(corner, u, v);
+  test::TestRandom rng(2024);
+  for (int i = 0; i < 200; ++i) {
+    const double a = rng.uniform(), b = rng.uniform();
+    const Vec3d target = corner + a * u + b * v;
+    const Vec3d origin{278 + 200 * (rng.uniform() - 0.5), 273 + 200 * (rng.uniform() - 0.5), -800};
+    Hit<T> hit;
+    SurfacePoint<T> at;
+    ASSERT_TRUE(hit_shape(quad, make_ray<T>(origin, target - origin), 0.001, 1e9, hit, at));
+    // The direction is rounded to 2^-32, so the distance can be off by about t * 2^-32 per component.
+    EXPECT_NEAR(static_cast<double>(hit.t), length(target - origin), 1e-6);
+    // du = 1/555 keeps 2^-33 / (1/555), about 6e-8 relative, which bounds the coordinates' error.
+    EXPECT_NEAR(static_cast<double>(at.u), a, 1e-7);
+    EXPECT_NEAR(static_cast<double>(at.v), b, 1e-7);
+  }
 }
 
 // ---- constant medium ----
@@ -516,9 +541,9 @@ TYPED_TEST(MediumIntersection, BoxBoundaryMediumScattersAtTheBox) {
   // The six faces of the box [-1, 1]^2 x [-6, -4].
   const Vec3d a{-1, -1, -6}, b{1, 1, -4};
   const Vec3d dx{2, 0, 0}, dy{0, 2, 0}, dz{0, 0, 2};
-  f.boundaries = {Primitive<T>{make_quad<T>({a.x, a.y, b.z}, dx, dy), 0}, Primitive<T>{make_quad<T>({b.x, a.y, b.z}, -dz, dy), 0},
-                  Primitive<T>{make_quad<T>({b.x, a.y, a.z}, -dx, dy), 0}, Primitive<T>{make_quad<T>(a, dz, dy), 0},
-                  Primitive<T>{make_quad<T>({a.x, b.y, b.z}, dx, -dz), 0}, Primitive<T>{make_quad<T>(a, dz, dx), 0}};
+  f.boundaries = {Primitive<T>{make_test_quad<T>({a.x, a.y, b.z}, dx, dy), 0}, Primitive<T>{make_test_quad<T>({b.x, a.y, b.z}, -dz, dy), 0},
+                  Primitive<T>{make_test_quad<T>({b.x, a.y, a.z}, -dx, dy), 0}, Primitive<T>{make_test_quad<T>(a, dz, dy), 0},
+                  Primitive<T>{make_test_quad<T>({a.x, b.y, b.z}, dx, -dz), 0}, Primitive<T>{make_test_quad<T>(a, dz, dx), 0}};
   f.medium = Primitive<T>{ConstantMedium<T>{0, 6, static_cast<T>(-1e-6)}, 0};
   Hit<T> hit;
   ASSERT_TRUE(hit_medium(f, 1, make_ray<T>({0.3, 0.2, 0}, {0, 0, -1}), 0.001, 1e30, hit));

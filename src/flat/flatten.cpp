@@ -70,7 +70,7 @@ Primitive<T> to(const Primitive<double>& primitive) {
       return MovingSphere<T>{to<T>(s.center0), scalar<T>(s.radius), to<T>(s.velocity), scalar<T>(s.time0)};
     }
     Shape<T> operator()(const Triangle<double>& t) const { return Triangle<T>{to<T>(t.p0), to<T>(t.edge1), to<T>(t.edge2), t.attributes}; }
-    Shape<T> operator()(const Quad<double>& q) const { return Quad<T>{to<T>(q.corner), to<T>(q.u), to<T>(q.v), to<T>(q.w)}; }
+    Shape<T> operator()(const Quad<double>& q) const { return Quad<T>{to<T>(q.corner), to<T>(q.normal), to<T>(q.du), to<T>(q.dv)}; }
     Shape<T> operator()(const ConstantMedium<double>& m) const {
       return ConstantMedium<T>{m.first_boundary, m.boundary_count, scalar<T>(m.neg_inv_density)};
     }
@@ -78,7 +78,7 @@ Primitive<T> to(const Primitive<double>& primitive) {
   return Primitive<T>{visit(Convert{}, primitive.shape), primitive.material};
 }
 
-// The primitive with every length multiplied by s; 1 / density is a length, a quad's w = (u x v) / |u x v|^2 is per area.
+// The primitive with every length multiplied by s; 1 / density is a length, a quad's dual edges are per length.
 Primitive<double> scaled(const Primitive<double>& primitive, double s) {
   struct Scale {
     double s;
@@ -87,7 +87,7 @@ Primitive<double> scaled(const Primitive<double>& primitive, double s) {
       return MovingSphere<double>{x.center0 * s, x.radius * s, x.velocity * s, x.time0};
     }
     Shape<double> operator()(const Triangle<double>& x) const { return Triangle<double>{x.p0 * s, x.edge1 * s, x.edge2 * s, x.attributes}; }
-    Shape<double> operator()(const Quad<double>& x) const { return Quad<double>{x.corner * s, x.u * s, x.v * s, x.w / (s * s)}; }
+    Shape<double> operator()(const Quad<double>& x) const { return Quad<double>{x.corner * s, x.normal, x.du / s, x.dv / s}; }
     Shape<double> operator()(const ConstantMedium<double>& x) const {
       return ConstantMedium<double>{x.first_boundary, x.boundary_count, x.neg_inv_density * s};
     }
@@ -115,11 +115,6 @@ double scene_extent(const std::vector<Aabb>& bounds, const Camera<double>& camer
   grow(camera.lower_left);
   grow(camera.lower_left + camera.horizontal + camera.vertical);
   return extent;
-}
-
-Quad<double> make_quad(const Vec3d& corner, const Vec3d& u, const Vec3d& v) {
-  const Vec3d n = cross(u, v);
-  return Quad<double>{corner, u, v, n / dot(n, n)};
 }
 
 // The six faces of a box, outward-facing, moved by the transform.
@@ -158,10 +153,12 @@ Aabb geometry_bounds(const Primitive<double>& p, double shutter_open, double shu
     box.grow(t->p0 + t->edge1);
     box.grow(t->p0 + t->edge2);
   } else if (const auto* q = std::get_if<Quad<double>>(&p.shape)) {
+    Vec3d u, v;
+    quad_edges(*q, u, v);
     box.grow(q->corner);
-    box.grow(q->corner + q->u);
-    box.grow(q->corner + q->v);
-    box.grow(q->corner + q->u + q->v);
+    box.grow(q->corner + u);
+    box.grow(q->corner + v);
+    box.grow(q->corner + u + v);
   }
   return box;
 }

@@ -306,6 +306,21 @@ struct ScalarTraits<Fixed<I, F>> {
     else return T::from_raw(static_cast<Raw>(bits24 >> (24 - F)));
   }
   PT_HD static constexpr T epsilon() { return T::from_raw(1); }
+  // BVH slab distances as (bound - origin) * (1 / d). The float form bound * (1 / d) - origin * (1 / d) would
+  // saturate both products for near-axis directions and subtract them to zero. Here an out-of-range distance
+  // means "beyond anything in the scene", a correct answer rather than an overflow, so it clamps uncounted.
+  PT_HD static constexpr T slab_reciprocal(T d) {
+    if (d.raw == 0) return T::from_raw(T::kMaxRaw);
+    return T::from_raw(clamp_to_range((i128(1) << (2 * F)) / d.raw));
+  }
+  PT_HD static constexpr T slab_origin_term(T origin, T) { return origin; }
+  PT_HD static constexpr T slab_distance(T bound, T reciprocal, T origin) {
+    const i128 product = static_cast<i128>((bound - origin).raw) * reciprocal.raw;
+    return T::from_raw(clamp_to_range((product + (i128(1) << (F - 1))) >> F));
+  }
+  PT_HD static constexpr Raw clamp_to_range(i128 v) {
+    return v > T::kMaxRaw ? T::kMaxRaw : (v < -static_cast<i128>(T::kMaxRaw) ? -T::kMaxRaw : static_cast<Raw>(v));
+  }
 };
 
 }  // namespace pt

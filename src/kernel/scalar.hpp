@@ -33,6 +33,11 @@ struct ScalarTraits<float> {
   PT_HD static float from_unit_bits(u32 bits24) { return static_cast<float>(bits24) * 0x1p-24f; }
   // Relative size of the tolerance used where two surfaces meet (grazing tests, degenerate triangles).
   PT_HD static float epsilon() { return 1e-8f; }
+  // BVH slab distances, (bound - origin) / direction, as bound * (1 / d) - origin * (1 / d): one fused multiply-add
+  // per plane. A zero component is nudged so that the reciprocal stays finite (no inf - inf).
+  PT_HD static float slab_reciprocal(float d) { return 1.0f / (::fabsf(d) > 1e-20f ? d : (d < 0.0f ? -1e-20f : 1e-20f)); }
+  PT_HD static float slab_origin_term(float origin, float reciprocal) { return origin * reciprocal; }
+  PT_HD static float slab_distance(float bound, float reciprocal, float origin_term) { return bound * reciprocal - origin_term; }
 };
 
 template <>
@@ -51,6 +56,9 @@ struct ScalarTraits<double> {
   PT_HD static double largest() { return DBL_MAX; }
   PT_HD static double from_unit_bits(u32 bits24) { return static_cast<double>(bits24) * 0x1p-24; }
   PT_HD static double epsilon() { return 1e-12; }
+  PT_HD static double slab_reciprocal(double d) { return 1.0 / (::fabs(d) > 1e-20 ? d : (d < 0.0 ? -1e-20 : 1e-20)); }
+  PT_HD static double slab_origin_term(double origin, double reciprocal) { return origin * reciprocal; }
+  PT_HD static double slab_distance(double bound, double reciprocal, double origin_term) { return bound * reciprocal - origin_term; }
 };
 
 // Short names used throughout the kernels; they only forward to the traits.

@@ -76,14 +76,15 @@ PT_HD inline Ray<T> camera_ray(const Camera<T>& camera, const RenderParams<T>& p
   return Ray<T>{origin, normalize(target - origin), time};
 }
 
-// A ray prepared for slab tests: reciprocal direction, origin times it, and for each axis the byte offset within a
-// BvhNode of the bound the ray meets first (lo where the direction is positive, hi where it is negative) and of the
-// one it meets last. Picking the planes once per ray saves the min/max pair per axis of every box test, and gives
-// the same entry and exit distances: with a fixed reciprocal the rounded plane distance is monotonic in the bound.
+// A ray prepared for slab tests: reciprocal direction, the origin term of the scalar type's slab distance (origin
+// times the reciprocal for floating point), and for each axis the byte offset within a BvhNode of the bound the ray
+// meets first (lo where the direction is positive, hi where it is negative) and of the one it meets last. Picking
+// the planes once per ray saves the min/max pair per axis of every box test, and gives the same entry and exit
+// distances: with a fixed reciprocal the rounded plane distance is monotonic in the bound.
 template <class T>
 struct BoxRay {
   Vec3<T> inv_direction;
-  Vec3<T> origin_times_inv;
+  Vec3<T> origin_term;
   u32 near_x, near_y, near_z;
   u32 far_x, far_y, far_z;
 };
@@ -93,38 +94,39 @@ PT_HD inline T node_bound(const BvhNode<T>& node, u32 byte_offset) {
   return *reinterpret_cast<const T*>(reinterpret_cast<const unsigned char*>(&node) + byte_offset);
 }
 
+template <class T>
+PT_HD inline T slab_distance(const BvhNode<T>& node, u32 byte_offset, T reciprocal, T origin_term) {
+  return ScalarTraits<T>::slab_distance(node_bound(node, byte_offset), reciprocal, origin_term);
+}
+
 // Slab test of a node's box against the ray, between t_min and the closest hit so far.
 template <class T>
 PT_HD inline bool ray_hits_box(const BvhNode<T>& node, const BoxRay<T>& r, T t_min, T t_max, T& t_entry) {
-  const T tx0 = node_bound(node, r.near_x) * r.inv_direction.x - r.origin_times_inv.x;
-  const T tx1 = node_bound(node, r.far_x) * r.inv_direction.x - r.origin_times_inv.x;
-  const T ty0 = node_bound(node, r.near_y) * r.inv_direction.y - r.origin_times_inv.y;
-  const T ty1 = node_bound(node, r.far_y) * r.inv_direction.y - r.origin_times_inv.y;
-  const T tz0 = node_bound(node, r.near_z) * r.inv_direction.z - r.origin_times_inv.z;
-  const T tz1 = node_bound(node, r.far_z) * r.inv_direction.z - r.origin_times_inv.z;
+  const T tx0 = slab_distance(node, r.near_x, r.inv_direction.x, r.origin_term.x);
+  const T tx1 = slab_distance(node, r.far_x, r.inv_direction.x, r.origin_term.x);
+  const T ty0 = slab_distance(node, r.near_y, r.inv_direction.y, r.origin_term.y);
+  const T ty1 = slab_distance(node, r.far_y, r.inv_direction.y, r.origin_term.y);
+  const T tz0 = slab_distance(node, r.near_z, r.inv_direction.z, r.origin_term.z);
+  const T tz1 = slab_distance(node, r.far_z, r.inv_direction.z, r.origin_term.z);
   const T near = max(max(tx0, ty0), max(tz0, t_min));
   const T far = min(min(tx1, ty1), min(tz1, t_max));
   t_entry = near;
   return near <= far;
 }
 
-// 1 / d, with zero components nudged so the reciprocal stays finite (keeps the slab test free of inf - inf).
-template <class T>
-PT_HD inline T safe_reciprocal(T d) {
-  const T tiny = constant<T>(1e-20);
-  return T(1) / (abs(d) > tiny ? d : (d < T(0) ? -tiny : tiny));
-}
-
 // Closest hit along the ray beyond t_min, by iterative BVH traversal with a fixed-size stack.
 template <class T>
 PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
-  const Vec3<T> inv{safe_reciprocal(ray.direction.x), safe_reciprocal(ray.direction.y), safe_reciprocal(ray.direction.z)};
+  using Traits = ScalarTraits<T>;
+  const Vec3<T> inv{Traits::slab_reciprocal(ray.direction.x), Traits::slab_reciprocal(ray.direction.y),
+                    Traits::slab_reciprocal(ray.direction.z)};
   constexpr u32 lo_x = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, x), hi_x = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, x);
   constexpr u32 lo_y = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, y), hi_y = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, y);
   constexpr u32 lo_z = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, z), hi_z = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, z);
   const bool neg_x = inv.x < T(0), neg_y = inv.y < T(0), neg_z = inv.z < T(0);
   const BoxRay<T> box_ray{inv,
-                          ray.origin * inv,
+                          {Traits::slab_origin_term(ray.origin.x, inv.x), Traits::slab_origin_term(ray.origin.y, inv.y),
+                           Traits::slab_origin_term(ray.origin.z, inv.z)},
                           neg_x ? hi_x : lo_x,
                           neg_y ? hi_y : lo_y,
                           neg_z ? hi_z : lo_z,

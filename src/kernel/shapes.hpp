@@ -23,8 +23,27 @@ struct TriangleAttributes {
   u32 has_normals, has_uvs;
 };
 
-// The parallelogram corner + a u + b v for a, b in [0, 1]; w = (u x v) / |u x v|^2 gives a and b cheaply.
-template <class T> struct Quad { Vec3<T> corner, u, v, w; };
+// The parallelogram corner + a u + b v for a, b in [0, 1], stored as its plane's unit normal and the dual edge
+// vectors du, dv (du.u = dv.v = 1, du.v = dv.u = 0), so that a = du.(p - corner) and b = dv.(p - corner).
+// Every stored value has the size of a length or of its reciprocal, never of 1/area, so narrow number formats
+// keep it precise, and a hit costs two dot products instead of two cross products.
+template <class T> struct Quad { Vec3<T> corner, normal, du, dv; };
+
+template <class T>
+PT_HD inline Quad<T> make_quad(const Vec3<T>& corner, const Vec3<T>& u, const Vec3<T>& v) {
+  const Vec3<T> n = cross(u, v);
+  const T area_squared = length_squared(n);
+  return Quad<T>{corner, n / sqrt(area_squared), cross(v, n) / area_squared, cross(n, u) / area_squared};
+}
+
+// The edges u and v back from the dual vectors (for bounds): du x dv = normal / |u x v|, u = |u x v| dv x normal,
+// v = |u x v| normal x du.
+template <class T>
+PT_HD inline void quad_edges(const Quad<T>& q, Vec3<T>& u, Vec3<T>& v) {
+  const T area = T(1) / dot(q.normal, cross(q.du, q.dv));
+  u = area * cross(q.dv, q.normal);
+  v = area * cross(q.normal, q.du);
+}
 
 // A constant-density medium inside a convex boundary made of `boundary_count` geometric primitives stored from
 // `first_boundary` in the scene's boundary array. neg_inv_density = -1 / density.
@@ -104,13 +123,13 @@ PT_HD inline bool intersect_triangle(const Triangle<T>& tri, const Ray<T>& ray, 
 
 template <class T>
 PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
-  const T denominator = dot(q.w, ray.direction);
+  const T denominator = dot(q.normal, ray.direction);
   if (denominator == T(0)) return false;
-  const T t = dot(q.w, q.corner - ray.origin) / denominator;
+  const T t = dot(q.normal, q.corner - ray.origin) / denominator;
   if (!(t > t_min && t < t_max)) return false;
   const Vec3<T> planar = ray.at(t) - q.corner;
-  const T a = dot(q.w, cross(planar, q.v));
-  const T b = dot(q.w, cross(q.u, planar));
+  const T a = dot(q.du, planar);
+  const T b = dot(q.dv, planar);
   if (!(a >= T(0) && a <= T(1) && b >= T(0) && b <= T(1))) return false;
   hit.t = t;
   hit.b1 = a;
@@ -235,7 +254,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       at.normal = at.front_face ? shading : -shading;
     }
     PT_HD void operator()(const Quad<T>& q) const {
-      set_face_normal(at, ray, normalize(q.w));
+      set_face_normal(at, ray, q.normal);
       at.u = hit.b1;
       at.v = hit.b2;
     }
