@@ -132,19 +132,25 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
   for (std::size_t i = 0; i < rays.size(); ++i) {
     const SampleRandom random = SampleRandom::make(7, static_cast<u32>(i), 0);
     const IntersectContext<T> context{view.boundaries, &random, 0};
-    Hit<T> bvh_hit{}, brute_hit{};
-    const bool bvh_found = closest_hit(view, rays[i], context, bvh_hit);
+    Hit<T> brute_hit{};
     const bool brute_found = closest_hit_brute_force(flat, rays[i], context, brute_hit);
     ++result.rays;
-    const bool same = bvh_found == brute_found &&
-                      (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t && bvh_hit.b1 == brute_hit.b1 &&
-                                      bvh_hit.b2 == brute_hit.b2));
-    if (!same) {
+    // Both layouts: the binary tree (walked on GPUs) and the wide one (walked on CPUs).
+    bool same = true;
+    for (const bool wide : {false, true}) {
+      Hit<T> bvh_hit{};
+      const bool bvh_found = wide ? closest_hit_wide(view, rays[i], context, bvh_hit) : closest_hit_binary(view, rays[i], context, bvh_hit);
+      if (bvh_found == brute_found && (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t &&
+                                                      bvh_hit.b1 == brute_hit.b1 && bvh_hit.b2 == brute_hit.b2)))
+        continue;
+      same = false;
       if (result.mismatches++ == 0)
-        result.first_mismatch = "ray " + std::to_string(i) + ": bvh " + (bvh_found ? std::to_string(bvh_hit.primitive) + " t=" + std::to_string(static_cast<double>(bvh_hit.t)) : "miss") +
-                                ", brute force " + (brute_found ? std::to_string(brute_hit.primitive) + " t=" + std::to_string(static_cast<double>(brute_hit.t)) : "miss");
-      continue;
+        result.first_mismatch = "ray " + std::to_string(i) + (wide ? ": wide bvh " : ": binary bvh ") +
+                                (bvh_found ? std::to_string(bvh_hit.primitive) + " t=" + std::to_string(static_cast<double>(bvh_hit.t)) : "miss") +
+                                ", brute force " +
+                                (brute_found ? std::to_string(brute_hit.primitive) + " t=" + std::to_string(static_cast<double>(brute_hit.t)) : "miss");
     }
+    if (!same) continue;
     if (brute_found) {
       ++result.hits;
       ++result.hits_by_shape[flat.primitives[brute_hit.primitive].shape.index()];
@@ -347,6 +353,57 @@ void check_structure(const FlatScene<T>& flat) {
   for (std::size_t i = 0; i < visited.size(); ++i) ASSERT_EQ(visited[i], 1) << "node " << i << " is unreachable";
   EXPECT_LE(max_depth, kBvhMaxDepth);
   EXPECT_EQ(max_depth, flat.bvh_depth);
+}
+
+// The wide tree: every primitive in exactly one leaf child whose box holds it, every node reached once, 2 to 4
+// children a node (1 only for a one-leaf scene), and no deeper than the binary tree (the stack is sized by it).
+template <class T>
+void check_wide_structure(const FlatScene<T>& flat) {
+  const std::vector<WideBvhNode<T>>& nodes = flat.wide_nodes;
+  ASSERT_FALSE(nodes.empty());
+  std::vector<int> seen(flat.primitives.size(), 0);
+  std::vector<int> visited(nodes.size(), 0);
+  u32 max_depth = 0;
+  int primitives_outside = 0;
+  std::vector<std::pair<u32, u32>> stack{{0, 1}};
+  while (!stack.empty()) {
+    const auto [index, depth] = stack.back();
+    stack.pop_back();
+    ASSERT_LT(index, nodes.size());
+    ASSERT_EQ(visited[index]++, 0) << "wide node " << index << " reached twice";
+    max_depth = std::max(max_depth, depth);
+    const WideBvhNode<T>& n = nodes[index];
+    ASSERT_LE(n.child_count, kWideBvhWidth);
+    if (flat.primitives.size() > 1) {
+      EXPECT_GE(n.child_count, 2u) << "wide node " << index;
+    }
+    for (u32 lane = 0; lane < n.child_count; ++lane) {
+      if (n.count[lane] == 0) {
+        stack.push_back({n.child[lane], depth + 1});
+        continue;
+      }
+      ASSERT_LE(static_cast<u64>(n.child[lane]) + n.count[lane], flat.primitives.size());
+      for (u32 i = n.child[lane]; i < n.child[lane] + n.count[lane]; ++i) {
+        ++seen[i];
+        const Aabb b = primitive_bounds(flat, flat.primitives[i]);
+        if (!(b.lo.x >= n.bounds[0][lane] && b.lo.y >= n.bounds[1][lane] && b.lo.z >= n.bounds[2][lane] && b.hi.x <= n.bounds[3][lane] &&
+              b.hi.y <= n.bounds[4][lane] && b.hi.z <= n.bounds[5][lane]))
+          ++primitives_outside;
+      }
+    }
+  }
+  EXPECT_EQ(primitives_outside, 0) << "primitives not inside their leaf's box";
+  for (std::size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i], 1) << "primitive " << i << " is in " << seen[i] << " wide leaves";
+  for (std::size_t i = 0; i < visited.size(); ++i) ASSERT_EQ(visited[i], 1) << "wide node " << i << " is unreachable";
+  EXPECT_LE(max_depth, flat.bvh_depth);
+}
+
+TYPED_TEST(BvhStructure, WideTreeHoldsEveryPrimitiveOnceAndIsNoDeeper) {
+  using T = TypeParam;
+  const FlatScene<T> flat = flatten_scene<T>(random_scene(12345), RenderSettings{});
+  check_wide_structure(flat);
+  // Folding every other level: about half the binary tree's interior nodes are left.
+  EXPECT_LT(flat.wide_nodes.size(), flat.nodes.size() / 2);
 }
 
 TYPED_TEST(BvhStructure, EveryPrimitiveInOneLeafAndChildBoxesInsideParents) {

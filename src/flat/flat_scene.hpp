@@ -13,6 +13,7 @@ namespace pt {
 template <class T>
 struct FlatScene {
   std::vector<BvhNode<T>> nodes;
+  std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, four children a node (kTraverseWideBvh)
   std::vector<Primitive<T>> primitives;
   std::vector<Primitive<T>> boundaries;
   std::vector<TriangleAttributes<T>> triangle_attributes;
@@ -40,6 +41,7 @@ struct FlatScene {
 template <class T, class Place>
 SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
   return SceneView<T>{place(scene.nodes, "copying the BVH"),
+                      place(scene.wide_nodes, "copying the wide BVH"),
                       place(scene.primitives, "copying the primitives"),
                       place(scene.boundaries, "copying the medium boundaries"),
                       place(scene.triangle_attributes, "copying the triangle attributes"),
@@ -58,6 +60,7 @@ static_assert(std::is_trivially_copyable_v<Primitive<float>>);
 static_assert(std::is_trivially_copyable_v<Material<float>>);
 static_assert(std::is_trivially_copyable_v<Texture<float>>);
 static_assert(std::is_trivially_copyable_v<BvhNode<float>>);
+static_assert(std::is_trivially_copyable_v<WideBvhNode<float>>);
 static_assert(std::is_trivially_copyable_v<SceneView<float>>);
 static_assert(sizeof(BvhNode<float>) == 32, "a BVH node fills one 32-byte sector");
 

@@ -178,6 +178,71 @@ BvhNode<T> padded_node(const BvhNode<double>& n) {
   return out;
 }
 
+// The wide tree: each wide node takes the children of a binary node and keeps opening its largest inner child
+// (by surface area) until it has four children or only leaves. Leaves become children of their wide parent.
+template <class T>
+class WideBvhBuilder {
+ public:
+  explicit WideBvhBuilder(const std::vector<BvhNode<double>>& binary) : binary_(binary) {}
+
+  std::vector<WideBvhNode<T>> build() {
+    const BvhNode<double>& root = binary_[0];
+    if (root.count > 0) {
+      const u32 slot = add_node();
+      set_child(slot, 0, 0);
+      wide_[slot].child_count = 1;
+    } else if (root.lo.x > root.hi.x) {
+      wide_[add_node()].child_count = 0;  // no primitives: nothing to enter
+    } else {
+      emit(0);
+    }
+    return std::move(wide_);
+  }
+
+ private:
+  u32 add_node() {
+    wide_.push_back(WideBvhNode<T>{});
+    return static_cast<u32>(wide_.size() - 1);
+  }
+  void set_child(u32 slot, u32 lane, u32 binary_index) {
+    const BvhNode<T> box = padded_node<T>(binary_[binary_index]);
+    const T planes[6] = {box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z};
+    for (int p = 0; p < 6; ++p) wide_[slot].bounds[p][lane] = planes[p];
+    wide_[slot].child[lane] = binary_[binary_index].left_first;
+    wide_[slot].count[lane] = binary_[binary_index].count;
+  }
+  static double area(const BvhNode<double>& n) {
+    const Vec3d d = n.hi - n.lo;
+    return d.x * d.y + d.y * d.z + d.z * d.x;
+  }
+  // Emits the wide node for binary interior node `index`; returns its position.
+  u32 emit(u32 index) {
+    std::vector<u32> children{index + 1, binary_[index].left_first};
+    while (children.size() < kWideBvhWidth) {
+      int widest = -1;
+      for (std::size_t k = 0; k < children.size(); ++k)
+        if (binary_[children[k]].count == 0 && (widest < 0 || area(binary_[children[k]]) > area(binary_[children[widest]])))
+          widest = static_cast<int>(k);
+      if (widest < 0) break;
+      const u32 opened = children[widest];
+      children[widest] = opened + 1;
+      children.push_back(binary_[opened].left_first);
+    }
+    const u32 slot = add_node();
+    for (u32 lane = 0; lane < kWideBvhWidth; ++lane) set_child(slot, lane, children[lane < children.size() ? lane : 0]);
+    wide_[slot].child_count = static_cast<u32>(children.size());
+    for (u32 lane = 0; lane < children.size(); ++lane)
+      if (binary_[children[lane]].count == 0) {
+        const u32 child = emit(children[lane]);
+        wide_[slot].child[lane] = child;
+      }
+    return slot;
+  }
+
+  const std::vector<BvhNode<double>>& binary_;
+  std::vector<WideBvhNode<T>> wide_;
+};
+
 template <class T>
 Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
   const double theta = c.vertical_fov * 3.14159265358979323846 / 180.0;
@@ -314,6 +379,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.bvh_depth = bvh.depth;
   flat.nodes.reserve(bvh.nodes.size());
   for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
+  flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
   flat.primitives.reserve(primitives.size());
   for (u32 index : bvh.order) flat.primitives.push_back(to<T>(primitives[index]));
   for (const Primitive<double>& p : boundaries) flat.boundaries.push_back(to<T>(p));
@@ -351,7 +417,7 @@ SceneView<T> FlatScene<T>::view() const {
 
 template <class T>
 std::size_t FlatScene<T>::bytes() const {
-  return nodes.size() * sizeof(nodes[0]) + primitives.size() * sizeof(primitives[0]) + boundaries.size() * sizeof(boundaries[0]) +
+  return nodes.size() * sizeof(nodes[0]) + wide_nodes.size() * sizeof(WideBvhNode<T>) + primitives.size() * sizeof(primitives[0]) + boundaries.size() * sizeof(boundaries[0]) +
          triangle_attributes.size() * sizeof(TriangleAttributes<T>) + materials.size() * sizeof(Material<T>) +
          textures.size() * sizeof(Texture<T>) + texels.size() * sizeof(float) + perlin_gradients.size() * sizeof(Vec3<T>) +
          perlin_permutations.size() * sizeof(u32);

@@ -21,6 +21,27 @@ struct BvhNode {
 // The builder never makes a deeper tree, so a traversal stack of this size cannot overflow.
 inline constexpr u32 kBvhMaxDepth = 64;
 
+// The same tree with every other level folded in: a node holds up to four children's boxes, stored by plane
+// (bounds[plane][child], planes lo x, y, z then hi x, y, z) so that one box test covers the four children with
+// one SIMD lane each on a CPU. A child with count 0 is the node at `child`; otherwise it is a leaf, primitives
+// [child, child + count). Slots from `child_count` on repeat the first child's box and are never entered.
+inline constexpr u32 kWideBvhWidth = 4;
+template <class T>
+struct alignas(16) WideBvhNode {
+  T bounds[6][kWideBvhWidth];
+  u32 child[kWideBvhWidth];
+  u32 count[kWideBvhWidth];
+  u32 child_count;
+};
+
+// Which layout closest_hit walks. GPU threads are the SIMD lanes already, and a wide node would lengthen each
+// thread's serial work, so GPUs keep the binary tree; host CPUs test four boxes at once.
+#if defined(__CUDA_ARCH__)
+inline constexpr bool kTraverseWideBvh = false;
+#else
+inline constexpr bool kTraverseWideBvh = true;
+#endif
+
 // A thin-lens camera, set up on the host: rays start on the lens and pass through the focus plane.
 template <class T>
 struct Camera {
@@ -48,6 +69,7 @@ struct RenderParams {
 template <class T>
 struct SceneView {
   const BvhNode<T>* nodes;
+  const WideBvhNode<T>* wide_nodes;
   const Primitive<T>* primitives;
   const Primitive<T>* boundaries;
   const TriangleAttributes<T>* triangle_attributes;
@@ -114,19 +136,46 @@ PT_HD inline bool ray_hits_box(const BvhNode<T>& node, const BoxRay<T>& r, T t_m
   return near <= far;
 }
 
-// Closest hit along the ray beyond t_min, by iterative BVH traversal with a fixed-size stack.
 template <class T>
-PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+PT_HD inline Vec3<T> slab_reciprocals(const Ray<T>& ray) {
   using Traits = ScalarTraits<T>;
-  const Vec3<T> inv{Traits::slab_reciprocal(ray.direction.x), Traits::slab_reciprocal(ray.direction.y),
-                    Traits::slab_reciprocal(ray.direction.z)};
+  return Vec3<T>{Traits::slab_reciprocal(ray.direction.x), Traits::slab_reciprocal(ray.direction.y), Traits::slab_reciprocal(ray.direction.z)};
+}
+
+template <class T>
+PT_HD inline Vec3<T> slab_origin_terms(const Ray<T>& ray, const Vec3<T>& inv) {
+  using Traits = ScalarTraits<T>;
+  return Vec3<T>{Traits::slab_origin_term(ray.origin.x, inv.x), Traits::slab_origin_term(ray.origin.y, inv.y),
+                 Traits::slab_origin_term(ray.origin.z, inv.z)};
+}
+
+// Tests the primitives of a leaf, narrowing `closest`.
+template <class T>
+PT_HD inline bool intersect_leaf(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, u32 first, u32 count,
+                                 T& closest, Hit<T>& hit) {
+  bool found = false;
+  for (u32 i = first; i < first + count; ++i) {
+    Hit<T> candidate;
+    if (intersect_primitive(scene.primitives[i], i, context, ray, scene.params.t_min, closest, candidate)) {
+      closest = candidate.t;
+      hit = candidate;
+      hit.primitive = i;
+      found = true;
+    }
+  }
+  return found;
+}
+
+// Closest hit along the ray beyond t_min over the binary tree, by iterative traversal with a fixed-size stack.
+template <class T>
+PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  const Vec3<T> inv = slab_reciprocals(ray);
   constexpr u32 lo_x = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, x), hi_x = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, x);
   constexpr u32 lo_y = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, y), hi_y = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, y);
   constexpr u32 lo_z = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, z), hi_z = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, z);
   const bool neg_x = inv.x < T(0), neg_y = inv.y < T(0), neg_z = inv.z < T(0);
   const BoxRay<T> box_ray{inv,
-                          {Traits::slab_origin_term(ray.origin.x, inv.x), Traits::slab_origin_term(ray.origin.y, inv.y),
-                           Traits::slab_origin_term(ray.origin.z, inv.z)},
+                          slab_origin_terms(ray, inv),
                           neg_x ? hi_x : lo_x,
                           neg_y ? hi_y : lo_y,
                           neg_z ? hi_z : lo_z,
@@ -144,15 +193,7 @@ PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, cons
   while (true) {
     const BvhNode<T>& node = scene.nodes[node_index];
     if (node.count > 0) {
-      for (u32 i = node.left_first; i < node.left_first + node.count; ++i) {
-        Hit<T> candidate;
-        if (intersect_primitive(scene.primitives[i], i, context, ray, t_min, closest, candidate)) {
-          closest = candidate.t;
-          hit = candidate;
-          hit.primitive = i;
-          found = true;
-        }
-      }
+      found |= intersect_leaf(scene, ray, context, node.left_first, node.count, closest, hit);
     } else {
       u32 near_child = node_index + 1, far_child = node.left_first;
       T near_entry, far_entry;
@@ -177,6 +218,111 @@ PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, cons
     node_index = stack[--stack_size];
   }
   return found;
+}
+
+// For each axis, the row of WideBvhNode::bounds with the plane the ray meets first (lo for a positive direction)
+// and the one it meets last.
+struct PlaneRows {
+  u32 near_x, near_y, near_z, far_x, far_y, far_z;
+};
+
+// Entry and exit distances of the ray for the four child boxes of a node (entered where entry <= exit).
+template <class T>
+PT_HD inline void wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
+                                T closest, T* entry, T* exit) {
+  using Traits = ScalarTraits<T>;
+  for (u32 i = 0; i < kWideBvhWidth; ++i) {
+    const T x0 = Traits::slab_distance(node.bounds[rows.near_x][i], inv.x, origin_term.x);
+    const T x1 = Traits::slab_distance(node.bounds[rows.far_x][i], inv.x, origin_term.x);
+    const T y0 = Traits::slab_distance(node.bounds[rows.near_y][i], inv.y, origin_term.y);
+    const T y1 = Traits::slab_distance(node.bounds[rows.far_y][i], inv.y, origin_term.y);
+    const T z0 = Traits::slab_distance(node.bounds[rows.near_z][i], inv.z, origin_term.z);
+    const T z1 = Traits::slab_distance(node.bounds[rows.far_z][i], inv.z, origin_term.z);
+    entry[i] = max(max(x0, y0), max(z0, t_min));
+    exit[i] = min(min(x1, y1), min(z1, closest));
+  }
+}
+
+#if !defined(__CUDA_ARCH__) && (defined(__GNUC__) || defined(__clang__))
+// The same test for float in four-lane vectors (GCC/Clang vector extensions: SSE on x86-64, NEON on ARM), which
+// GCC 12 does not find by itself in the loop above. Same operations in the same order, so the same distances:
+// `a > b ? a : b` is exactly what the scalar max does.
+inline void wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
+                          float t_min, float closest, float* entry, float* exit) {
+  typedef float Lanes __attribute__((vector_size(16)));
+  auto row = [&](u32 r) {
+    Lanes v;
+    __builtin_memcpy(&v, node.bounds[r], sizeof v);
+    return v;
+  };
+  auto vmax = [](Lanes a, Lanes b) { return a > b ? a : b; };
+  auto vmin = [](Lanes a, Lanes b) { return a < b ? a : b; };
+  const Lanes x0 = row(rows.near_x) * inv.x - origin_term.x, x1 = row(rows.far_x) * inv.x - origin_term.x;
+  const Lanes y0 = row(rows.near_y) * inv.y - origin_term.y, y1 = row(rows.far_y) * inv.y - origin_term.y;
+  const Lanes z0 = row(rows.near_z) * inv.z - origin_term.z, z1 = row(rows.far_z) * inv.z - origin_term.z;
+  const Lanes near = vmax(vmax(x0, y0), vmax(z0, Lanes{t_min, t_min, t_min, t_min}));
+  const Lanes far = vmin(vmin(x1, y1), vmin(z1, Lanes{closest, closest, closest, closest}));
+  __builtin_memcpy(entry, &near, sizeof near);
+  __builtin_memcpy(exit, &far, sizeof far);
+}
+#endif
+
+// Closest hit along the ray beyond t_min over the wide tree. Each node's four boxes are tested together; leaves
+// among the children are intersected at once (they narrow `closest` before anything is pushed), the other children
+// that were entered are visited nearest first, the rest pushed.
+template <class T>
+PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  const Vec3<T> inv = slab_reciprocals(ray);
+  const Vec3<T> origin_term = slab_origin_terms(ray, inv);
+  // Plane rows of the bounds: the plane each axis meets first (lo for a positive direction), and last.
+  const PlaneRows rows{inv.x < T(0) ? 3u : 0u, inv.y < T(0) ? 4u : 1u, inv.z < T(0) ? 5u : 2u,
+                       inv.x < T(0) ? 0u : 3u, inv.y < T(0) ? 1u : 4u, inv.z < T(0) ? 2u : 5u};
+  const T t_min = scene.params.t_min;
+  T closest = largest<T>();
+  bool found = false;
+  u32 stack[kBvhMaxDepth * (kWideBvhWidth - 1)];
+  u32 stack_size = 0;
+  u32 node_index = 0;
+  while (true) {
+    const WideBvhNode<T>& node = scene.wide_nodes[node_index];
+    T entry[kWideBvhWidth], exit[kWideBvhWidth];
+    wide_box_test(node, rows, inv, origin_term, t_min, closest, entry, exit);
+    // Inner children entered, sorted by entry distance (at most four: insertion sort).
+    u32 inner[kWideBvhWidth];
+    T inner_entry[kWideBvhWidth];
+    u32 inner_count = 0;
+    for (u32 i = 0; i < node.child_count; ++i) {
+      if (!(entry[i] <= exit[i])) continue;
+      if (node.count[i] > 0) {
+        found |= intersect_leaf(scene, ray, context, node.child[i], node.count[i], closest, hit);
+        continue;
+      }
+      u32 at = inner_count++;
+      while (at > 0 && inner_entry[at - 1] > entry[i]) {
+        inner[at] = inner[at - 1];
+        inner_entry[at] = inner_entry[at - 1];
+        --at;
+      }
+      inner[at] = node.child[i];
+      inner_entry[at] = entry[i];
+    }
+    // A leaf tested above may have moved `closest` in front of some entries.
+    while (inner_count > 0 && inner_entry[inner_count - 1] > closest) --inner_count;
+    if (inner_count > 0) {
+      for (u32 k = inner_count - 1; k > 0; --k) stack[stack_size++] = inner[k];
+      node_index = inner[0];
+      continue;
+    }
+    if (stack_size == 0) break;
+    node_index = stack[--stack_size];
+  }
+  return found;
+}
+
+template <class T>
+PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  if constexpr (kTraverseWideBvh) return closest_hit_wide(scene, ray, context, hit);
+  else return closest_hit_binary(scene, ray, context, hit);
 }
 
 }  // namespace pt
