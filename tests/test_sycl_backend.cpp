@@ -13,6 +13,7 @@
 
 #include "app/backends.hpp"
 #include "backends/cpu/cpu_backend.hpp"
+#include "backends/wavefront_schedule.hpp"
 #include "film/film.hpp"
 #include "scene/scene_loader.hpp"
 #if PT_HAVE_SYCL
@@ -111,8 +112,11 @@ void expect_parity(const std::string& scene, u32 width, u32 height, u32 spp) {
 // The double kernels are a separate instantiation, which the shared parity test (float) does not cover.
 TEST(SyclBackend, TinySceneMatchesCpuDouble) { expect_parity<double>("tiny.json", 64, 48, 16); }
 
-TEST(SyclBackend, ImageDoesNotDependOnHowSamplesAreSplit) {
-  const std::unique_ptr<RenderBackend<float>> sycl = make_sycl_backend<float>(test_device());
+// Both integrators: the megakernel's launches and the wavefront's batches must not depend on the calls' split.
+class SyclSampleSplit : public ::testing::TestWithParam<Integrator> {};
+
+TEST_P(SyclSampleSplit, ImageDoesNotDependOnHowSamplesAreSplit) {
+  const std::unique_ptr<RenderBackend<float>> sycl = make_sycl_backend<float>(test_device(), GetParam());
   const SceneDescription scene = load_scene_file(std::filesystem::path(PT_SOURCE_DIR) / "scenes" / "tiny.json");
   const FlatScene<float> flat = flatten_scene<float>(scene, scene.render);
   std::vector<FilmPixel> whole, split;
@@ -134,6 +138,22 @@ TEST(SyclBackend, ImageDoesNotDependOnHowSamplesAreSplit) {
   }
 }
 
+INSTANTIATE_TEST_SUITE_P(Integrators, SyclSampleSplit, ::testing::Values(Integrator::kMegakernel, Integrator::kWavefront),
+                         [](const ::testing::TestParamInfo<Integrator>& info) {
+                           return std::string(info.param == Integrator::kWavefront ? "Wavefront" : "Megakernel");
+                         });
+
+// The wavefront stages report a time for each stage they ran.
+TEST(SyclBackend, WavefrontReportsStageTimes) {
+  const std::unique_ptr<RenderBackend<float>> sycl = make_sycl_backend<float>(test_device(), Integrator::kWavefront);
+  const SceneDescription scene = load_scene_file(std::filesystem::path(PT_SOURCE_DIR) / "scenes" / "tiny.json");
+  sycl->upload(flatten_scene<float>(scene, scene.render));
+  sycl->render(0, 2);
+  const auto stages = sycl->stage_seconds();
+  ASSERT_EQ(stages.size(), kWavefrontStageNames.size());
+  for (const auto& [name, seconds] : stages) EXPECT_GT(seconds, 0.0) << name;
+}
+
 TEST(SyclBackend, MissingDeviceIsOneLineError) {
   try {
     make_sycl_backend<float>(1000);
@@ -150,7 +170,8 @@ TEST(SyclBackend, SelectedByName) {
   EXPECT_EQ(backend->name().rfind("sycl", 0), 0u) << backend->name();
   const std::vector<std::string> names = backend_names();
   EXPECT_NE(std::find(names.begin(), names.end(), "sycl"), names.end());
-  EXPECT_THROW(make_backend<float>("sycl", 0, 0, Integrator::kWavefront, test_device()), BackendError);
+  const std::unique_ptr<RenderBackend<float>> wavefront = make_backend<float>("sycl", 0, 0, Integrator::kWavefront, test_device());
+  EXPECT_NE(wavefront->name().find("wavefront"), std::string::npos) << wavefront->name();
 }
 
 #ifdef PT_PATHTRACER_BINARY

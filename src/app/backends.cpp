@@ -43,11 +43,7 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
     return make_cpu_backend<T>(threads, integrator);
   } else {
 #if PT_HAVE_SYCL
-    if (name == "sycl") {
-      // The SYCL backend has the megakernel only; saying so beats silently rendering another way.
-      if (integrator == Integrator::kWavefront) throw BackendError("sycl: the wavefront integrator is not available on this backend");
-      return make_sycl_backend<T>(sycl_device);
-    }
+    if (name == "sycl") return make_sycl_backend<T>(sycl_device, integrator);
 #else
     (void)sycl_device;
 #endif

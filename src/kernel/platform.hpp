@@ -3,6 +3,12 @@
 
 #include <cstdint>
 
+// In a SYCL translation unit (the SYCL header defines SYCL_LANGUAGE_VERSION) atomics go through sycl::atomic_ref.
+#if defined(SYCL_LANGUAGE_VERSION) && !defined(__CUDACC__)
+#include <sycl/sycl.hpp>
+#define PT_SYCL_KERNELS 1
+#endif
+
 #if defined(__CUDACC__)
 #define PT_HD __host__ __device__
 #else
@@ -20,6 +26,8 @@ using i32 = std::int32_t;
 PT_HD inline u32 atomic_fetch_add(u32* counter, u32 value) {
 #if defined(__CUDA_ARCH__)
   return atomicAdd(counter, value);
+#elif defined(PT_SYCL_KERNELS)
+  return sycl::atomic_ref<u32, sycl::memory_order::relaxed, sycl::memory_scope::device>(*counter).fetch_add(value);
 #else
   return __atomic_fetch_add(counter, value, __ATOMIC_RELAXED);
 #endif

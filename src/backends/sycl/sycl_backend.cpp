@@ -1,5 +1,6 @@
 // The SYCL backend: a thin host layer over standard SYCL 2020 (USM device allocations, an in-order queue, a
-// parallel_for over the image per sample) running the shared kernel headers. Compiled by a SYCL compiler only.
+// parallel_for over the image per sample, or one per wavefront stage over its queue) running the shared kernel
+// headers. Compiled by a SYCL compiler only.
 #include "backends/sycl/sycl_backend.hpp"
 
 #include <sycl/sycl.hpp>
@@ -7,11 +8,13 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "backends/wavefront_schedule.hpp"
 #include "kernel/integrator.hpp"
 
 namespace pt {
@@ -90,6 +93,97 @@ class DeviceMemory {
   void* pointer_ = nullptr;
 };
 
+// Device storage of the wavefront's pools and queues, and each stage as one parallel_for over its queue. The
+// host waits after each stage, which gives its time (wall clock) and is needed anyway to read the queue lengths.
+template <class T>
+class SyclWavefrontStages final : public WavefrontStages {
+ public:
+  SyclWavefrontStages(sycl::queue& queue, std::function<void(const char*)> synchronise, const SceneView<T>& scene,
+                      FilmPixel* film, u32 capacity, u32 samples_per_batch)
+      : queue_(queue), synchronise_(std::move(synchronise)), scene_(scene), film_(film) {
+    for (PathPool<T>& pool : pools_) {
+      pool.origin = allocate<Vec3<T>>(capacity);
+      pool.direction = allocate<Vec3<T>>(capacity);
+      pool.time = allocate<T>(capacity);
+      pool.radiance = allocate<Color<T>>(capacity);
+      pool.throughput = allocate<Color<T>>(capacity);
+      pool.bounce = allocate<u32>(capacity);
+      pool.item = allocate<u32>(capacity);
+    }
+    view_.hit_t = allocate<T>(capacity);
+    view_.hit_b1 = allocate<T>(capacity);
+    view_.hit_b2 = allocate<T>(capacity);
+    view_.hit_primitive = allocate<u32>(capacity);
+    view_.escaped = allocate<u32>(capacity);
+    for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = allocate<u32>(capacity);
+    view_.counters = allocate<u32>(kWavefrontCounters);
+    view_.pixels = scene.params.width * scene.params.height;
+    view_.results = allocate<SampleResult<T>>(static_cast<std::size_t>(view_.pixels) * samples_per_batch);
+    guarded("clearing the wavefront queues", [&] { queue_.memset(view_.counters, 0, kWavefrontCounters * sizeof(u32)); });
+    synchronise_("clearing the wavefront queues");
+    point_pools();
+  }
+
+  void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
+  void generate(u32 first_slot, u32 count, u32 first_item) override {
+    run(0, count, [=, scene = scene_, view = view_](u32 i) { wavefront_generate(scene, view, first_slot + i, first_item + i); });
+  }
+  void intersect(u32 count) override {
+    run(1, count, [scene = scene_, view = view_](u32 i) { wavefront_intersect(scene, view, i); });
+  }
+  void escaped(u32 count) override {
+    run(2, count, [scene = scene_, view = view_](u32 i) { wavefront_escaped(scene, view, i); });
+  }
+  void shade(u32 material_class, u32 count) override {
+    run(3, count, [=, scene = scene_, view = view_](u32 i) { wavefront_shade(scene, view, material_class, i); });
+  }
+  void accumulate(u32 sample_count) override {
+    run(4, view_.pixels, [=, view = view_, film = film_](u32 pixel) { wavefront_accumulate(view, film, pixel, sample_count); });
+  }
+  std::array<u32, kWavefrontCounters> take_counters() override {
+    std::array<u32, kWavefrontCounters> values{};
+    guarded("reading the wavefront queues", [&] {
+      queue_.memcpy(values.data(), view_.counters, sizeof(values));
+      queue_.memset(view_.counters, 0, sizeof(values));
+    });
+    synchronise_("reading the wavefront queues");
+    return values;
+  }
+  void swap_pools() override {
+    current_ ^= 1;
+    point_pools();
+  }
+
+ private:
+  template <class U>
+  U* allocate(std::size_t count) {
+    return static_cast<U*>(memory_.emplace_back(queue_).allocate(count * sizeof(U), "allocating the wavefront path pool"));
+  }
+  void point_pools() {
+    view_.current = pools_[current_];
+    view_.next = pools_[current_ ^ 1];
+  }
+  template <class F>
+  void run(int stage, u32 count, const F& body) {
+    if (count == 0) return;
+    const auto start = std::chrono::steady_clock::now();
+    guarded("launching a wavefront stage", [&] {
+      queue_.parallel_for(sycl::range<1>(count), [=](sycl::item<1> item) { body(static_cast<u32>(item.get_id(0))); });
+    });
+    synchronise_("running a wavefront stage");
+    seconds_[stage] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  sycl::queue& queue_;
+  std::function<void(const char*)> synchronise_;
+  SceneView<T> scene_;
+  FilmPixel* film_;
+  std::deque<DeviceMemory> memory_;  // declared after the queue reference, freed through it
+  PathPool<T> pools_[2]{};
+  int current_ = 0;
+  WavefrontView<T> view_{};
+};
+
 sycl::device pick_device(int index) {
   if (index < 0) return guarded("choosing the default device", [] { return sycl::device(sycl::default_selector_v); });
   const std::vector<sycl::device> devices = guarded("listing the devices", [] { return sycl::device::get_devices(); });
@@ -102,8 +196,9 @@ sycl::device pick_device(int index) {
 template <class T>
 class SyclBackend final : public RenderBackend<T> {
  public:
-  explicit SyclBackend(int device_index)
-      : device_index_(device_index), device_(pick_device(device_index)), queue_(make_queue()), description_(describe(device_)) {
+  SyclBackend(int device_index, Integrator integrator)
+      : device_index_(device_index), integrator_(integrator), device_(pick_device(device_index)), queue_(make_queue()),
+        description_(describe(device_)) {
     // The film sums samples in double whatever the scalar type, so a device without fp64 cannot run the kernel.
     if (!device_.has(sycl::aspect::fp64))
       throw BackendError(fmt::format("sycl: device {} ({}) has no double precision, which the film needs", device_index_,
@@ -111,11 +206,12 @@ class SyclBackend final : public RenderBackend<T> {
   }
 
   std::string name() const override {
-    return fmt::format("sycl (device {}: {}, megakernel)", device_index_ < 0 ? std::string("default") : std::to_string(device_index_),
-                       description_);
+    return fmt::format("sycl (device {}: {}, {})", device_index_ < 0 ? std::string("default") : std::to_string(device_index_),
+                       description_, integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel");
   }
 
   void upload(const FlatScene<T>& scene) override {
+    wavefront_.reset();
     scene_memory_.clear();
     view_ = place_scene(scene, [&](const auto& array, const char* what) { return scene_memory_.emplace_back(queue_).upload(array, what); });
     pixels_ = static_cast<std::size_t>(scene.params.width) * scene.params.height;
@@ -123,9 +219,24 @@ class SyclBackend final : public RenderBackend<T> {
     guarded("clearing the film", [&] { queue_.memset(film_, 0, pixels_ * sizeof(FilmPixel)); });
     synchronise("clearing the film");
     samples_per_batch_ = 1;
+    if (integrator_ == Integrator::kWavefront) {
+      // Pools as large as the CUDA backend's on a GPU, as the CPU backend's elsewhere (see BENCHMARKS.md).
+      pool_capacity_ = device_.is_gpu() ? kGpuWavefrontPool : kHostWavefrontPool;
+      wavefront_batch_ = wavefront_samples_per_batch(static_cast<u32>(pixels_), pool_capacity_);
+      wavefront_ = std::make_unique<SyclWavefrontStages<T>>(queue_, [this](const char* what) { synchronise(what); }, view_, film_,
+                                                            pool_capacity_, wavefront_batch_);
+    }
+  }
+
+  std::vector<std::pair<std::string, double>> stage_seconds() const override {
+    return wavefront_ ? wavefront_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
   }
 
   void render(u32 first_sample, u32 sample_count) override {
+    if (wavefront_) {
+      run_wavefront(*wavefront_, static_cast<u32>(pixels_), pool_capacity_, wavefront_batch_, first_sample, sample_count);
+      return;
+    }
     const SceneView<T> view = view_;
     FilmPixel* const film = film_;
     const u32 width = view.params.width;
@@ -159,6 +270,8 @@ class SyclBackend final : public RenderBackend<T> {
 
  private:
   static constexpr double kBatchTargetSeconds = 0.1;
+  static constexpr u32 kGpuWavefrontPool = 1u << 20;
+  static constexpr u32 kHostWavefrontPool = 1u << 16;
 
   // In order: every launch adds to the same film pixels, and USM carries no dependencies of its own.
   // Asynchronous errors are collected by the handler and thrown as one line at the next synchronisation.
@@ -192,6 +305,7 @@ class SyclBackend final : public RenderBackend<T> {
   }
 
   int device_index_;
+  Integrator integrator_;
   sycl::device device_;
   std::vector<std::string> async_errors_;
   sycl::queue queue_;  // declared before the allocations, so it is destroyed after them
@@ -202,17 +316,19 @@ class SyclBackend final : public RenderBackend<T> {
   FilmPixel* film_ = nullptr;
   std::size_t pixels_ = 0;
   u32 samples_per_batch_ = 1;
+  u32 pool_capacity_ = 0, wavefront_batch_ = 1;
+  std::unique_ptr<SyclWavefrontStages<T>> wavefront_;  // last: freed before the scene and film it points into
 };
 
 }  // namespace
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device) {
-  return std::make_unique<SyclBackend<T>>(device);
+std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device, Integrator integrator) {
+  return std::make_unique<SyclBackend<T>>(device, integrator);
 }
 
-template std::unique_ptr<RenderBackend<float>> make_sycl_backend<float>(int);
-template std::unique_ptr<RenderBackend<double>> make_sycl_backend<double>(int);
+template std::unique_ptr<RenderBackend<float>> make_sycl_backend<float>(int, Integrator);
+template std::unique_ptr<RenderBackend<double>> make_sycl_backend<double>(int, Integrator);
 
 void list_sycl_devices() {
   std::vector<sycl::device> devices;

@@ -11,7 +11,7 @@ namespace pt {
 // `device` indexes sycl::device::get_devices() (as listed by list_sycl_devices); a negative index lets the
 // runtime's default selector choose. Throws BackendError when the device is missing or unusable.
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device);
+std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device, Integrator integrator = Integrator::kMegakernel);
 
 // Prints the SYCL devices, one a line with its index, to stdout.
 void list_sycl_devices();
