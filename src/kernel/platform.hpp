@@ -33,6 +33,15 @@ PT_HD inline u32 atomic_fetch_add(u32* counter, u32 value) {
 #endif
 }
 
+// Index of the lowest set bit of a non-zero mask.
+PT_HD inline u32 lowest_set_bit(u32 mask) {
+#if defined(__CUDA_ARCH__)
+  return static_cast<u32>(__ffs(static_cast<int>(mask)) - 1);
+#else
+  return static_cast<u32>(__builtin_ctz(mask));
+#endif
+}
+
 // Takes a slot at the end of a queue whose length is *counter. On a GPU the threads of a warp that push onto
 // the same queue together make one atomic addition between them (a queue counter is hit by every thread of a
 // stage, and same-address atomics serialise); elsewhere it is one relaxed atomic per push.

@@ -226,11 +226,13 @@ struct PlaneRows {
   u32 near_x, near_y, near_z, far_x, far_y, far_z;
 };
 
-// Entry and exit distances of the ray for the four child boxes of a node (entered where entry <= exit).
+// Entry distances of the ray into the four child boxes of a node, and a mask with bit i set where child i is
+// entered (slots past child_count included; the caller masks them off).
 template <class T>
-PT_HD inline void wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
-                                T closest, T* entry, T* exit) {
+PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
+                               T closest, T* entry) {
   using Traits = ScalarTraits<T>;
+  u32 entered = 0;
   for (u32 i = 0; i < kWideBvhWidth; ++i) {
     const T x0 = Traits::slab_distance(node.bounds[rows.near_x][i], inv.x, origin_term.x);
     const T x1 = Traits::slab_distance(node.bounds[rows.far_x][i], inv.x, origin_term.x);
@@ -239,17 +241,19 @@ PT_HD inline void wide_box_test(const WideBvhNode<T>& node, const PlaneRows& row
     const T z0 = Traits::slab_distance(node.bounds[rows.near_z][i], inv.z, origin_term.z);
     const T z1 = Traits::slab_distance(node.bounds[rows.far_z][i], inv.z, origin_term.z);
     entry[i] = max(max(x0, y0), max(z0, t_min));
-    exit[i] = min(min(x1, y1), min(z1, closest));
+    if (entry[i] <= min(min(x1, y1), min(z1, closest))) entered |= 1u << i;
   }
+  return entered;
 }
 
 #if !defined(__CUDA_ARCH__) && (defined(__GNUC__) || defined(__clang__))
 // The same test for float in four-lane vectors (GCC/Clang vector extensions: SSE on x86-64, NEON on ARM), which
 // GCC 12 does not find by itself in the loop above. Same operations in the same order, so the same distances:
-// `a > b ? a : b` is exactly what the scalar max does.
-inline void wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
-                          float t_min, float closest, float* entry, float* exit) {
+// `a > b ? a : b` is exactly what the scalar max does. The mask comes from one compare instead of four branches.
+inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
+                         float t_min, float closest, float* entry) {
   typedef float Lanes __attribute__((vector_size(16)));
+  typedef int Mask __attribute__((vector_size(16)));
   auto row = [&](u32 r) {
     Lanes v;
     __builtin_memcpy(&v, node.bounds[r], sizeof v);
@@ -263,7 +267,12 @@ inline void wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows,
   const Lanes near = vmax(vmax(x0, y0), vmax(z0, Lanes{t_min, t_min, t_min, t_min}));
   const Lanes far = vmin(vmin(x1, y1), vmin(z1, Lanes{closest, closest, closest, closest}));
   __builtin_memcpy(entry, &near, sizeof near);
-  __builtin_memcpy(exit, &far, sizeof far);
+  const Mask inside = near <= far;  // all ones where entered
+#if defined(__SSE__)
+  return static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside)));
+#else
+  return (inside[0] & 1u) | (inside[1] & 2u) | (inside[2] & 4u) | (inside[3] & 8u);
+#endif
 }
 #endif
 
@@ -285,14 +294,15 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
   u32 node_index = 0;
   while (true) {
     const WideBvhNode<T>& node = scene.wide_nodes[node_index];
-    T entry[kWideBvhWidth], exit[kWideBvhWidth];
-    wide_box_test(node, rows, inv, origin_term, t_min, closest, entry, exit);
+    T entry[kWideBvhWidth];
+    u32 entered = wide_box_test(node, rows, inv, origin_term, t_min, closest, entry) & ((1u << node.child_count) - 1u);
     // Inner children entered, sorted by entry distance (at most four: insertion sort).
     u32 inner[kWideBvhWidth];
     T inner_entry[kWideBvhWidth];
     u32 inner_count = 0;
-    for (u32 i = 0; i < node.child_count; ++i) {
-      if (!(entry[i] <= exit[i])) continue;
+    while (entered != 0) {
+      const u32 i = lowest_set_bit(entered);
+      entered &= entered - 1u;
       if (node.count[i] > 0) {
         found |= intersect_leaf(scene, ray, context, node.child[i], node.count[i], closest, hit);
         continue;
