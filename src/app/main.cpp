@@ -42,8 +42,9 @@ struct RenderOptions {
   u32 runs = 5;  // bench only
 };
 
-// "auto" picks each backend's faster integrator as measured in BENCHMARKS.md: the wavefront on GPUs (about 2x on
-// material-heavy scenes), the megakernel on the CPU (the wavefront's queues cost more there than they save).
+// "auto" picks each backend's faster integrator as measured in BENCHMARKS.md: the wavefront on CUDA GPUs (about 2x
+// on material-heavy scenes), the megakernel on the CPU and on SYCL (only CPU devices were measured there; the
+// wavefront's queues cost more on them than they save).
 Integrator integrator_of(const RenderOptions& options) {
   if (options.integrator == "wavefront") return Integrator::kWavefront;
   if (options.integrator == "megakernel") return Integrator::kMegakernel;

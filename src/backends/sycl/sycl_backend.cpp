@@ -9,6 +9,7 @@
 #include <chrono>
 #include <deque>
 #include <functional>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -184,6 +185,15 @@ class SyclWavefrontStages final : public WavefrontStages {
   WavefrontView<T> view_{};
 };
 
+// A CPU device's runtime may hand each thread one contiguous block of rows, and image rows differ widely in cost
+// (sky above, geometry below). Work item row r renders image row (r * stride) mod height: a stride near
+// height / golden ratio and coprime with the height visits every row once and spreads each block over the image.
+u32 spreading_stride(u32 height) {
+  u32 stride = std::max<u32>(1, static_cast<u32>(height * 0.618));
+  while (std::gcd(stride, height) != 1) ++stride;
+  return stride;
+}
+
 sycl::device pick_device(int index) {
   if (index < 0) return guarded("choosing the default device", [] { return sycl::device(sycl::default_selector_v); });
   const std::vector<sycl::device> devices = guarded("listing the devices", [] { return sycl::device::get_devices(); });
@@ -219,6 +229,7 @@ class SyclBackend final : public RenderBackend<T> {
     guarded("clearing the film", [&] { queue_.memset(film_, 0, pixels_ * sizeof(FilmPixel)); });
     synchronise("clearing the film");
     samples_per_batch_ = 1;
+    row_stride_ = host_device_ ? spreading_stride(scene.params.height) : 1;
     if (integrator_ == Integrator::kWavefront) {
       // Pools as large as the CUDA backend's on a GPU, as the CPU backend's elsewhere (see BENCHMARKS.md).
       pool_capacity_ = device_.is_gpu() ? kGpuWavefrontPool : kHostWavefrontPool;
@@ -245,13 +256,17 @@ class SyclBackend final : public RenderBackend<T> {
     while (done < sample_count) {
       const u32 count = std::min(samples_per_batch_, sample_count - done);
       const auto start = std::chrono::steady_clock::now();
-      for (u32 s = first_sample + done; s < first_sample + done + count; ++s) {
-        // One sample per work item and launch, as in the CUDA backend: the launch boundary orders the samples
-        // of a pixel, so its sum is added in sample order and matches the CPU's.
+      // On a GPU, one sample per work item and launch, as in the CUDA backend (launches stay short). On a CPU
+      // device a launch costs a fork and join of the worker threads, so a work item takes the batch's samples
+      // of its pixel in order: the same sums in the same order either way, so the same image.
+      const u32 per_launch = host_device_ ? count : 1;
+      const u32 row_stride = row_stride_;
+      for (u32 s = first_sample + done; s < first_sample + done + count; s += per_launch) {
         guarded("launching the render kernel", [&] {
           queue_.parallel_for(image, [=](sycl::item<2> item) {
-            const u32 x = static_cast<u32>(item.get_id(1)), y = static_cast<u32>(item.get_id(0));
-            accumulate_pixel(view, x, y, s, 1, film[static_cast<std::size_t>(y) * width + x]);
+            const u32 x = static_cast<u32>(item.get_id(1));
+            const u32 y = static_cast<u32>((item.get_id(0) * row_stride) % view.params.height);
+            accumulate_pixel(view, x, y, s, per_launch, film[static_cast<std::size_t>(y) * width + x]);
           });
         });
       }
@@ -307,6 +322,8 @@ class SyclBackend final : public RenderBackend<T> {
   int device_index_;
   Integrator integrator_;
   sycl::device device_;
+  bool host_device_ = device_.is_cpu();
+  u32 row_stride_ = 1;
   std::vector<std::string> async_errors_;
   sycl::queue queue_;  // declared before the allocations, so it is destroyed after them
   std::string description_;
