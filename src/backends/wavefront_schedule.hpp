@@ -4,6 +4,7 @@
 
 #include <array>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -44,6 +45,36 @@ class WavefrontStages {
   std::array<double, kWavefrontStageNames.size()> seconds_{};
 };
 
+
+// The wavefront's arrays for a pool of `capacity` paths, each taken from `allocate(bytes)` (device memory on a GPU):
+// both pools, the hits, the escaped and material queues, the counters, and one result per work item of a batch.
+// The caller clears the counters and points view.current / view.next at the pools.
+template <class T, class Allocate>
+void allocate_wavefront(PathPool<T> (&pools)[2], WavefrontView<T>& view, u32 capacity, u32 pixels, u32 samples_per_batch,
+                        Allocate&& allocate) {
+  auto array = [&](auto*& pointer, std::size_t count) {
+    using U = std::remove_reference_t<decltype(*pointer)>;
+    pointer = static_cast<U*>(allocate(count * sizeof(U)));
+  };
+  for (PathPool<T>& pool : pools) {
+    array(pool.origin, capacity);
+    array(pool.direction, capacity);
+    array(pool.time, capacity);
+    array(pool.radiance, capacity);
+    array(pool.throughput, capacity);
+    array(pool.bounce, capacity);
+    array(pool.item, capacity);
+  }
+  array(view.hit_t, capacity);
+  array(view.hit_b1, capacity);
+  array(view.hit_b2, capacity);
+  array(view.hit_primitive, capacity);
+  array(view.escaped, capacity);
+  for (u32 m = 0; m < kMaterialClasses; ++m) array(view.material_queue[m], capacity);
+  array(view.counters, kWavefrontCounters);
+  view.pixels = pixels;
+  array(view.results, static_cast<std::size_t>(pixels) * samples_per_batch);
+}
 
 // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film.
 void run_wavefront(WavefrontStages& stages, u32 pixels, u32 pool_capacity, u32 samples_per_batch, u32 first_sample, u32 sample_count);

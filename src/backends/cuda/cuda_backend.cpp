@@ -60,26 +60,13 @@ template <class T>
 class CudaWavefrontStages final : public WavefrontStages {
  public:
   CudaWavefrontStages(const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch) : scene_(scene), film_(film) {
-    for (int p = 0; p < 2; ++p) {
-      PathPool<T>& pool = pools_[p];
-      pool.origin = allocate<Vec3<T>>(capacity);
-      pool.direction = allocate<Vec3<T>>(capacity);
-      pool.time = allocate<T>(capacity);
-      pool.radiance = allocate<Color<T>>(capacity);
-      pool.throughput = allocate<Color<T>>(capacity);
-      pool.bounce = allocate<u32>(capacity);
-      pool.item = allocate<u32>(capacity);
-    }
-    view_.hit_t = allocate<T>(capacity);
-    view_.hit_b1 = allocate<T>(capacity);
-    view_.hit_b2 = allocate<T>(capacity);
-    view_.hit_primitive = allocate<u32>(capacity);
-    view_.escaped = allocate<u32>(capacity);
-    for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = allocate<u32>(capacity);
-    view_.counters = allocate<u32>(kWavefrontCounters);
+    allocate_wavefront(pools_, view_, capacity, scene.params.width * scene.params.height, samples_per_batch, [&](std::size_t bytes) {
+      void* p = nullptr;
+      check(cudaMalloc(&p, std::max<std::size_t>(bytes, 16)), "allocating the wavefront path pool");
+      allocations_.push_back(p);
+      return p;
+    });
     check(cudaMemset(view_.counters, 0, kWavefrontCounters * sizeof(u32)), "clearing the wavefront queues");
-    view_.pixels = scene.params.width * scene.params.height;
-    view_.results = allocate<SampleResult<T>>(static_cast<size_t>(view_.pixels) * samples_per_batch);
     point_pools();
   }
   ~CudaWavefrontStages() override {
@@ -112,13 +99,6 @@ class CudaWavefrontStages final : public WavefrontStages {
   }
 
  private:
-  template <class U>
-  U* allocate(size_t count) {
-    void* p = nullptr;
-    check(cudaMalloc(&p, std::max<size_t>(count * sizeof(U), 16)), "allocating the wavefront path pool");
-    allocations_.push_back(p);
-    return static_cast<U*>(p);
-  }
   void point_pools() {
     view_.current = pools_[current_];
     view_.next = pools_[current_ ^ 1];

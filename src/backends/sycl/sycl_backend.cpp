@@ -102,24 +102,8 @@ class SyclWavefrontStages final : public WavefrontStages {
   SyclWavefrontStages(sycl::queue& queue, std::function<void(const char*)> synchronise, const SceneView<T>& scene,
                       FilmPixel* film, u32 capacity, u32 samples_per_batch)
       : queue_(queue), synchronise_(std::move(synchronise)), scene_(scene), film_(film) {
-    for (PathPool<T>& pool : pools_) {
-      pool.origin = allocate<Vec3<T>>(capacity);
-      pool.direction = allocate<Vec3<T>>(capacity);
-      pool.time = allocate<T>(capacity);
-      pool.radiance = allocate<Color<T>>(capacity);
-      pool.throughput = allocate<Color<T>>(capacity);
-      pool.bounce = allocate<u32>(capacity);
-      pool.item = allocate<u32>(capacity);
-    }
-    view_.hit_t = allocate<T>(capacity);
-    view_.hit_b1 = allocate<T>(capacity);
-    view_.hit_b2 = allocate<T>(capacity);
-    view_.hit_primitive = allocate<u32>(capacity);
-    view_.escaped = allocate<u32>(capacity);
-    for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = allocate<u32>(capacity);
-    view_.counters = allocate<u32>(kWavefrontCounters);
-    view_.pixels = scene.params.width * scene.params.height;
-    view_.results = allocate<SampleResult<T>>(static_cast<std::size_t>(view_.pixels) * samples_per_batch);
+    allocate_wavefront(pools_, view_, capacity, scene.params.width * scene.params.height, samples_per_batch,
+                       [&](std::size_t bytes) { return memory_.emplace_back(queue_).allocate(bytes, "allocating the wavefront path pool"); });
     guarded("clearing the wavefront queues", [&] { queue_.memset(view_.counters, 0, kWavefrontCounters * sizeof(u32)); });
     synchronise_("clearing the wavefront queues");
     point_pools();
@@ -156,10 +140,6 @@ class SyclWavefrontStages final : public WavefrontStages {
   }
 
  private:
-  template <class U>
-  U* allocate(std::size_t count) {
-    return static_cast<U*>(memory_.emplace_back(queue_).allocate(count * sizeof(U), "allocating the wavefront path pool"));
-  }
   void point_pools() {
     view_.current = pools_[current_];
     view_.next = pools_[current_ ^ 1];
