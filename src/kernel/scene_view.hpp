@@ -268,7 +268,7 @@ inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, 
   const Lanes far = vmin(vmin(x1, y1), vmin(z1, Lanes{closest, closest, closest, closest}));
   __builtin_memcpy(entry, &near, sizeof near);
   const Mask inside = near <= far;  // all ones where entered
-#if defined(__SSE__)
+#if defined(__SSE__) && !defined(PT_SYCL_KERNELS)  // SYCL kernels may be compiled for a GPU: no x86 builtins there
   return static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside)));
 #else
   return (inside[0] & 1u) | (inside[1] & 2u) | (inside[2] & 4u) | (inside[3] & 8u);
