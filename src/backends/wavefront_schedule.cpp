@@ -11,7 +11,8 @@ u32 wavefront_samples_per_batch(u32 pixels, u32 pool_capacity) {
   return static_cast<u32>(std::clamp<u64>((wanted_items + pixels - 1) / pixels, 1, 64));
 }
 
-void run_wavefront(WavefrontStages& stages, u32 pixels, u32 pool_capacity, u32 samples_per_batch, u32 first_sample, u32 sample_count) {
+void run_wavefront(WavefrontStages& stages, u32 first_sample, u32 sample_count) {
+  const u32 pixels = stages.pixels(), pool_capacity = stages.pool_capacity(), samples_per_batch = stages.samples_per_batch();
   for (u32 batch_first = first_sample; batch_first < first_sample + sample_count; batch_first += samples_per_batch) {
     const u32 batch_samples = std::min(samples_per_batch, first_sample + sample_count - batch_first);
     const u32 items = pixels * batch_samples;

@@ -423,6 +423,8 @@ std::size_t FlatScene<T>::bytes() const {
          perlin_permutations.size() * sizeof(u32);
 }
 
+// Written out here rather than through the traversal's intersect_leaf: this is the reference the traversal is checked
+// against, so it shares only the primitive tests with it.
 template <class T>
 bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
   T closest = largest<T>();

@@ -63,6 +63,12 @@ struct WavefrontView {
   u32 pixels;
 
   PT_HD u32 pixel_of(u32 item) const { return item % pixels; }
+  // The paths that go on were written to `next`; they become the current ones (host side, between bounces).
+  void swap_pools() {
+    const PathPool<T> done = current;
+    current = next;
+    next = done;
+  }
   PT_HD u32 sample_of(u32 item) const { return first_sample + item / pixels; }
 };
 

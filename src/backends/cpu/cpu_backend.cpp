@@ -34,11 +34,12 @@ struct HostPathPool {
 template <class T>
 class CpuWavefrontStages final : public WavefrontStages {
  public:
-  CpuWavefrontStages(ParallelLoop& loop, const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch)
-      : loop_(loop), scene_(scene), film_(film), pools_{HostPathPool<T>(capacity), HostPathPool<T>(capacity)},
-        hit_t_(capacity), hit_b1_(capacity), hit_b2_(capacity), hit_primitive_(capacity), escaped_(capacity),
-        results_(static_cast<std::size_t>(scene.params.width) * scene.params.height * samples_per_batch) {
-    for (auto& q : material_queues_) q.resize(capacity);
+  CpuWavefrontStages(ParallelLoop& loop, const SceneView<T>& scene, FilmPixel* film)
+      : WavefrontStages(scene.params.width * scene.params.height, kHostWavefrontPool), loop_(loop), scene_(scene), film_(film),
+        pools_{HostPathPool<T>(pool_capacity()), HostPathPool<T>(pool_capacity())}, hit_t_(pool_capacity()), hit_b1_(pool_capacity()),
+        hit_b2_(pool_capacity()), hit_primitive_(pool_capacity()), escaped_(pool_capacity()),
+        results_(static_cast<std::size_t>(pixels()) * samples_per_batch()) {
+    for (auto& q : material_queues_) q.resize(pool_capacity());
     view_.hit_t = hit_t_.data();
     view_.hit_b1 = hit_b1_.data();
     view_.hit_b2 = hit_b2_.data();
@@ -47,8 +48,9 @@ class CpuWavefrontStages final : public WavefrontStages {
     for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = material_queues_[m].data();
     view_.counters = counters_.data();
     view_.results = results_.data();
-    view_.pixels = scene.params.width * scene.params.height;
-    point_pools();
+    view_.pixels = pixels();
+    view_.current = pools_[0].view();
+    view_.next = pools_[1].view();
   }
 
   void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
@@ -68,16 +70,9 @@ class CpuWavefrontStages final : public WavefrontStages {
     counters_.fill(0);
     return values;
   }
-  void swap_pools() override {
-    current_ ^= 1;
-    point_pools();
-  }
+  void swap_pools() override { view_.swap_pools(); }
 
  private:
-  void point_pools() {
-    view_.current = pools_[current_].view();
-    view_.next = pools_[current_ ^ 1].view();
-  }
   template <class F>
   void timed(int stage, u32 count, const F& body) {
     const auto start = std::chrono::steady_clock::now();
@@ -89,7 +84,6 @@ class CpuWavefrontStages final : public WavefrontStages {
   const SceneView<T>& scene_;
   FilmPixel* film_;
   HostPathPool<T> pools_[2];
-  int current_ = 0;
   std::vector<T> hit_t_, hit_b1_, hit_b2_;
   std::vector<u32> hit_primitive_, escaped_;
   std::array<std::vector<u32>, kMaterialClasses> material_queues_;
@@ -118,9 +112,7 @@ class CpuBackend final : public RenderBackend<T> {
     saturations_ = 0;
     wavefront_.reset();
     if (integrator_ == Integrator::kWavefront) {
-      const u32 pixels = scene.params.width * scene.params.height;
-      samples_per_batch_ = wavefront_samples_per_batch(pixels, kCpuWavefrontPool);
-      wavefront_ = std::make_unique<CpuWavefrontStages<T>>(loop_, view_, film_.data(), kCpuWavefrontPool, samples_per_batch_);
+      wavefront_ = std::make_unique<CpuWavefrontStages<T>>(loop_, view_, film_.data());
     }
   }
 
@@ -130,7 +122,7 @@ class CpuBackend final : public RenderBackend<T> {
 
   void render(u32 first_sample, u32 sample_count) override {
     if (wavefront_) {
-      run_wavefront(*wavefront_, scene_.params.width * scene_.params.height, kCpuWavefrontPool, samples_per_batch_, first_sample, sample_count);
+      run_wavefront(*wavefront_, first_sample, sample_count);
       return;
     }
     const SceneView<T> view = view_;
@@ -163,7 +155,6 @@ class CpuBackend final : public RenderBackend<T> {
   SceneView<T> view_{};
   std::vector<FilmPixel> film_;
   std::unique_ptr<CpuWavefrontStages<T>> wavefront_;
-  u32 samples_per_batch_ = 1;
   std::atomic<u64> saturations_{0};
 };
 

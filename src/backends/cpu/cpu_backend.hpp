@@ -11,7 +11,4 @@ namespace pt {
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_cpu_backend(unsigned threads, Integrator integrator = Integrator::kMegakernel);
 
-// Paths in flight in the CPU backend's wavefront pool.
-inline constexpr u32 kCpuWavefrontPool = 1u << 16;
-
 }  // namespace pt

@@ -59,15 +59,15 @@ class DeviceBuffer {
 template <class T>
 class CudaWavefrontStages final : public WavefrontStages {
  public:
-  CudaWavefrontStages(const SceneView<T>& scene, FilmPixel* film, u32 capacity, u32 samples_per_batch) : scene_(scene), film_(film) {
-    allocate_wavefront(pools_, view_, capacity, scene.params.width * scene.params.height, samples_per_batch, [&](std::size_t bytes) {
+  CudaWavefrontStages(const SceneView<T>& scene, FilmPixel* film)
+      : WavefrontStages(scene.params.width * scene.params.height, kGpuWavefrontPool), scene_(scene), film_(film) {
+    allocate_wavefront(*this, view_, [&](std::size_t bytes) {
       void* p = nullptr;
       check(cudaMalloc(&p, std::max<std::size_t>(bytes, 16)), "allocating the wavefront path pool");
       allocations_.push_back(p);
       return p;
     });
     check(cudaMemset(view_.counters, 0, kWavefrontCounters * sizeof(u32)), "clearing the wavefront queues");
-    point_pools();
   }
   ~CudaWavefrontStages() override {
     for (void* p : allocations_) cudaFree(p);
@@ -93,16 +93,9 @@ class CudaWavefrontStages final : public WavefrontStages {
     collect_timings();
     return values;
   }
-  void swap_pools() override {
-    current_ ^= 1;
-    point_pools();
-  }
+  void swap_pools() override { view_.swap_pools(); }
 
  private:
-  void point_pools() {
-    view_.current = pools_[current_];
-    view_.next = pools_[current_ ^ 1];
-  }
   // Launches are queued without waiting; their events are read at the next synchronisation (take_counters).
   void run(WavefrontStage stage, int timer, u32 count, u32 a, u32 b) {
     if (count == 0) return;
@@ -135,8 +128,6 @@ class CudaWavefrontStages final : public WavefrontStages {
 
   const SceneView<T>& scene_;
   FilmPixel* film_;
-  PathPool<T> pools_[2]{};
-  int current_ = 0;
   WavefrontView<T> view_{};
   std::vector<void*> allocations_;
   std::vector<Timing> timings_;
@@ -181,15 +172,13 @@ class CudaBackend final : public RenderBackend<T> {
     device_seconds_ = 0;
     wavefront_.reset();
     if (integrator_ == Integrator::kWavefront) {
-      const u32 pixels = scene.params.width * scene.params.height;
-      wavefront_batch_ = wavefront_samples_per_batch(pixels, kCudaWavefrontPool);
-      wavefront_ = std::make_unique<CudaWavefrontStages<T>>(view_, film_, kCudaWavefrontPool, wavefront_batch_);
+      wavefront_ = std::make_unique<CudaWavefrontStages<T>>(view_, film_);
     }
   }
 
   void render(u32 first_sample, u32 sample_count) override {
     if (wavefront_) {
-      run_wavefront(*wavefront_, view_.params.width * view_.params.height, kCudaWavefrontPool, wavefront_batch_, first_sample, sample_count);
+      run_wavefront(*wavefront_, first_sample, sample_count);
       device_seconds_ = wavefront_->total_seconds();
       return;
     }
@@ -225,7 +214,6 @@ class CudaBackend final : public RenderBackend<T> {
   int device_;
   Integrator integrator_;
   std::unique_ptr<CudaWavefrontStages<T>> wavefront_;
-  u32 wavefront_batch_ = 1;
   cudaDeviceProp properties_{};
   cudaEvent_t start_ = nullptr, stop_ = nullptr;
   std::deque<DeviceBuffer> scene_buffers_;  // one per scene array (deque: buffers do not move)

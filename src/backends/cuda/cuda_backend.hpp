@@ -11,9 +11,6 @@ namespace pt {
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_cuda_backend(int device, Integrator integrator = Integrator::kMegakernel);
 
-// Paths in flight in the CUDA backend's wavefront pool.
-inline constexpr u32 kCudaWavefrontPool = 1u << 20;
-
 // Number of usable CUDA devices (0 when the driver is missing or unusable).
 int cuda_device_count();
 

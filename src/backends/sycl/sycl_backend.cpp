@@ -100,13 +100,13 @@ template <class T>
 class SyclWavefrontStages final : public WavefrontStages {
  public:
   SyclWavefrontStages(sycl::queue& queue, std::function<void(const char*)> synchronise, const SceneView<T>& scene,
-                      FilmPixel* film, u32 capacity, u32 samples_per_batch)
-      : queue_(queue), synchronise_(std::move(synchronise)), scene_(scene), film_(film) {
-    allocate_wavefront(pools_, view_, capacity, scene.params.width * scene.params.height, samples_per_batch,
+                      FilmPixel* film, u32 pool_capacity)
+      : WavefrontStages(scene.params.width * scene.params.height, pool_capacity), queue_(queue), synchronise_(std::move(synchronise)),
+        scene_(scene), film_(film) {
+    allocate_wavefront(*this, view_,
                        [&](std::size_t bytes) { return memory_.emplace_back(queue_).allocate(bytes, "allocating the wavefront path pool"); });
     guarded("clearing the wavefront queues", [&] { queue_.memset(view_.counters, 0, kWavefrontCounters * sizeof(u32)); });
     synchronise_("clearing the wavefront queues");
-    point_pools();
   }
 
   void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
@@ -134,16 +134,9 @@ class SyclWavefrontStages final : public WavefrontStages {
     synchronise_("reading the wavefront queues");
     return values;
   }
-  void swap_pools() override {
-    current_ ^= 1;
-    point_pools();
-  }
+  void swap_pools() override { view_.swap_pools(); }
 
  private:
-  void point_pools() {
-    view_.current = pools_[current_];
-    view_.next = pools_[current_ ^ 1];
-  }
   template <class F>
   void run(int stage, u32 count, const F& body) {
     if (count == 0) return;
@@ -160,8 +153,6 @@ class SyclWavefrontStages final : public WavefrontStages {
   SceneView<T> scene_;
   FilmPixel* film_;
   std::deque<DeviceMemory> memory_;  // declared after the queue reference, freed through it
-  PathPool<T> pools_[2]{};
-  int current_ = 0;
   WavefrontView<T> view_{};
 };
 
@@ -212,10 +203,8 @@ class SyclBackend final : public RenderBackend<T> {
     row_stride_ = host_device_ ? spreading_stride(scene.params.height) : 1;
     if (integrator_ == Integrator::kWavefront) {
       // Pools as large as the CUDA backend's on a GPU, as the CPU backend's elsewhere (see BENCHMARKS.md).
-      pool_capacity_ = device_.is_gpu() ? kGpuWavefrontPool : kHostWavefrontPool;
-      wavefront_batch_ = wavefront_samples_per_batch(static_cast<u32>(pixels_), pool_capacity_);
       wavefront_ = std::make_unique<SyclWavefrontStages<T>>(queue_, [this](const char* what) { synchronise(what); }, view_, film_,
-                                                            pool_capacity_, wavefront_batch_);
+                                                            device_.is_gpu() ? kGpuWavefrontPool : kHostWavefrontPool);
     }
   }
 
@@ -225,7 +214,7 @@ class SyclBackend final : public RenderBackend<T> {
 
   void render(u32 first_sample, u32 sample_count) override {
     if (wavefront_) {
-      run_wavefront(*wavefront_, static_cast<u32>(pixels_), pool_capacity_, wavefront_batch_, first_sample, sample_count);
+      run_wavefront(*wavefront_, first_sample, sample_count);
       return;
     }
     const SceneView<T> view = view_;
@@ -265,8 +254,6 @@ class SyclBackend final : public RenderBackend<T> {
 
  private:
   static constexpr double kBatchTargetSeconds = 0.1;
-  static constexpr u32 kGpuWavefrontPool = 1u << 20;
-  static constexpr u32 kHostWavefrontPool = 1u << 16;
 
   // In order: every launch adds to the same film pixels, and USM carries no dependencies of its own.
   // Asynchronous errors are collected by the handler and thrown as one line at the next synchronisation.
@@ -313,7 +300,6 @@ class SyclBackend final : public RenderBackend<T> {
   FilmPixel* film_ = nullptr;
   std::size_t pixels_ = 0;
   u32 samples_per_batch_ = 1;
-  u32 pool_capacity_ = 0, wavefront_batch_ = 1;
   std::unique_ptr<SyclWavefrontStages<T>> wavefront_;  // last: freed before the scene and film it points into
 };
 
