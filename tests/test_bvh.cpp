@@ -377,6 +377,10 @@ void check_wide_structure(const FlatScene<T>& flat) {
     if (flat.primitives.size() > 1) {
       EXPECT_GE(n.child_count, 2u) << "wide node " << index;
     }
+    u32 leaf_mask = 0, inner_mask = 0;
+    for (u32 lane = 0; lane < n.child_count; ++lane) (n.count[lane] > 0 ? leaf_mask : inner_mask) |= 1u << lane;
+    EXPECT_EQ(n.leaf_mask, leaf_mask) << "wide node " << index;
+    EXPECT_EQ(n.inner_mask, inner_mask) << "wide node " << index;
     for (u32 lane = 0; lane < n.child_count; ++lane) {
       if (n.count[lane] == 0) {
         stack.push_back({n.child[lane], depth + 1});

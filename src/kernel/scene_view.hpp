@@ -25,6 +25,8 @@ inline constexpr u32 kBvhMaxDepth = 64;
 // (bounds[plane][child], planes lo x, y, z then hi x, y, z) so that one box test covers the four children with
 // one SIMD lane each on a CPU. A child with count 0 is the node at `child`; otherwise it is a leaf, primitives
 // [child, child + count). Slots from `child_count` on repeat the first child's box and are never entered.
+// The two masks say which slots below child_count are leaves and which are inner nodes (bit i for slot i), so that
+// traversal splits the entered children with two ANDs.
 inline constexpr u32 kWideBvhWidth = 4;
 template <class T>
 struct alignas(16) WideBvhNode {
@@ -32,6 +34,7 @@ struct alignas(16) WideBvhNode {
   u32 child[kWideBvhWidth];
   u32 count[kWideBvhWidth];
   u32 child_count;
+  u32 leaf_mask, inner_mask;
 };
 
 // Which layout closest_hit walks. GPU threads are the SIMD lanes already, and a wide node would lengthen each
@@ -227,7 +230,7 @@ struct PlaneRows {
 };
 
 // Entry distances of the ray into the four child boxes of a node, and a mask with bit i set where child i is
-// entered (slots past child_count included; the caller masks them off).
+// entered (slots past child_count included: the node's masks leave them out).
 template <class T>
 PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
                                T closest, T* entry) {
@@ -276,9 +279,24 @@ inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, 
 }
 #endif
 
+// Tests the leaf children of a wide node that the ray entered (bit i of `leaves` for slot i), narrowing `closest`.
+template <class T>
+PT_HD inline bool intersect_wide_leaves(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, const WideBvhNode<T>& node,
+                                        u32 leaves, T& closest, Hit<T>& hit) {
+  bool found = false;
+  while (leaves != 0) {
+    const u32 i = lowest_set_bit(leaves);
+    leaves &= leaves - 1u;
+    found |= intersect_leaf(scene, ray, context, node.child[i], node.count[i], closest, hit);
+  }
+  return found;
+}
+
 // Closest hit along the ray beyond t_min over the wide tree. Each node's four boxes are tested together; leaves
-// among the children are intersected at once (they narrow `closest` before anything is pushed), the other children
-// that were entered are visited nearest first, the rest pushed.
+// among the children are intersected at once (they narrow `closest` before anything is pushed), the inner children
+// that were entered in front of the closest hit are visited nearest first, the rest pushed. The leaf tests are a
+// branch of their own, away from the loop over inner children: the primitive tests need many registers, and with
+// them inside that loop the compiler saved and restored the traversal's state around it at every node.
 template <class T>
 PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
   const Vec3<T> inv = slab_reciprocals(ray);
@@ -295,18 +313,18 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
   while (true) {
     const WideBvhNode<T>& node = scene.wide_nodes[node_index];
     T entry[kWideBvhWidth];
-    u32 entered = wide_box_test(node, rows, inv, origin_term, t_min, closest, entry) & ((1u << node.child_count) - 1u);
-    // Inner children entered, sorted by entry distance (at most four: insertion sort).
+    const u32 entered = wide_box_test(node, rows, inv, origin_term, t_min, closest, entry);
+    const u32 leaves = entered & node.leaf_mask;
+    if (leaves != 0) found |= intersect_wide_leaves(scene, ray, context, node, leaves, closest, hit);
+    // Inner children entered in front of the closest hit, sorted by entry distance (at most four: insertion sort).
+    u32 inner_mask = entered & node.inner_mask;
     u32 inner[kWideBvhWidth];
     T inner_entry[kWideBvhWidth];
     u32 inner_count = 0;
-    while (entered != 0) {
-      const u32 i = lowest_set_bit(entered);
-      entered &= entered - 1u;
-      if (node.count[i] > 0) {
-        found |= intersect_leaf(scene, ray, context, node.child[i], node.count[i], closest, hit);
-        continue;
-      }
+    while (inner_mask != 0) {
+      const u32 i = lowest_set_bit(inner_mask);
+      inner_mask &= inner_mask - 1u;
+      if (entry[i] > closest) continue;  // a leaf tested above hit something nearer
       u32 at = inner_count++;
       while (at > 0 && inner_entry[at - 1] > entry[i]) {
         inner[at] = inner[at - 1];
@@ -316,8 +334,6 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
       inner[at] = node.child[i];
       inner_entry[at] = entry[i];
     }
-    // A leaf tested above may have moved `closest` in front of some entries.
-    while (inner_count > 0 && inner_entry[inner_count - 1] > closest) --inner_count;
     if (inner_count > 0) {
       for (u32 k = inner_count - 1; k > 0; --k) stack[stack_size++] = inner[k];
       node_index = inner[0];
