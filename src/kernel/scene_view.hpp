@@ -315,26 +315,37 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
     T entry[kWideBvhWidth];
     const u32 entered = wide_box_test(node, rows, inv, origin_term, t_min, closest, entry);
     const u32 leaves = entered & node.leaf_mask;
-    if (leaves != 0) found |= intersect_wide_leaves(scene, ray, context, node, leaves, closest, hit);
-    // Inner children entered in front of the closest hit, sorted by entry distance (at most four: insertion sort).
     u32 inner_mask = entered & node.inner_mask;
-    u32 inner[kWideBvhWidth];
-    T inner_entry[kWideBvhWidth];
-    u32 inner_count = 0;
-    while (inner_mask != 0) {
-      const u32 i = lowest_set_bit(inner_mask);
-      inner_mask &= inner_mask - 1u;
-      if (entry[i] > closest) continue;  // a leaf tested above hit something nearer
-      u32 at = inner_count++;
-      while (at > 0 && inner_entry[at - 1] > entry[i]) {
-        inner[at] = inner[at - 1];
-        inner_entry[at] = inner_entry[at - 1];
-        --at;
-      }
-      inner[at] = node.child[i];
-      inner_entry[at] = entry[i];
+    if (leaves != 0) {
+      found |= intersect_wide_leaves(scene, ray, context, node, leaves, closest, hit);
+      for (u32 rest = inner_mask; rest != 0; rest &= rest - 1u)  // a leaf may have hit something nearer
+        if (entry[lowest_set_bit(rest)] > closest) inner_mask &= ~(1u << lowest_set_bit(rest));
     }
-    if (inner_count > 0) {
+    if (inner_mask != 0) {
+      const u32 first = lowest_set_bit(inner_mask);
+      inner_mask &= inner_mask - 1u;
+      if (inner_mask == 0) {  // one inner child entered, the most common case: no sorting
+        node_index = node.child[first];
+        continue;
+      }
+      // Two to four: sorted by entry distance (insertion sort), the nearest visited next, the others pushed.
+      u32 inner[kWideBvhWidth];
+      T inner_entry[kWideBvhWidth];
+      inner[0] = node.child[first];
+      inner_entry[0] = entry[first];
+      u32 inner_count = 1;
+      while (inner_mask != 0) {
+        const u32 i = lowest_set_bit(inner_mask);
+        inner_mask &= inner_mask - 1u;
+        u32 at = inner_count++;
+        while (at > 0 && inner_entry[at - 1] > entry[i]) {
+          inner[at] = inner[at - 1];
+          inner_entry[at] = inner_entry[at - 1];
+          --at;
+        }
+        inner[at] = node.child[i];
+        inner_entry[at] = entry[i];
+      }
       for (u32 k = inner_count - 1; k > 0; --k) stack[stack_size++] = inner[k];
       node_index = inner[0];
       continue;
