@@ -184,17 +184,22 @@ TEST(ImageFormatFromExtension, KnownExtensionsInAnyCaseOthersRejected) {
   }
 }
 
-TEST(TextureImages, PngDecodesFromSrgbToLinear) {
+TEST(TextureImages, PngKeepsItsSrgbBytesAndDecodesToLinear) {
   test::TempDir dir;
   const LinearImage image = synthetic_image(6, 5);
   write_image(dir / "texture.png", image);
-  const LinearImage back = read_texture_image(dir / "texture.png");
+  const TextureImage back = read_texture_image(dir / "texture.png");
   ASSERT_EQ(back.width, 6u);
   ASSERT_EQ(back.height, 5u);
+  ASSERT_EQ(back.srgb.size(), image.rgb.size());
+  const std::vector<float> decode = srgb_decode_table();
+  ASSERT_EQ(decode.size(), 256u);
   for (std::size_t i = 0; i < image.rgb.size(); ++i) {
-    // Exactly the decoded byte, and close to the original (8-bit sRGB steps are at most 0.013 in linear).
-    EXPECT_EQ(back.rgb[i], srgb_to_linear(png_byte(image.rgb[i]) / 255.0f)) << i;
-    EXPECT_NEAR(back.rgb[i], std::clamp(image.rgb[i], 0.0f, 1.0f), 0.007) << i;
+    // Exactly the byte written, and its decoded value close to the original (8-bit sRGB steps are at most 0.013
+    // in linear).
+    EXPECT_EQ(back.srgb[i], png_byte(image.rgb[i])) << i;
+    EXPECT_EQ(decode[back.srgb[i]], srgb_to_linear(back.srgb[i] / 255.0f)) << i;
+    EXPECT_NEAR(decode[back.srgb[i]], std::clamp(image.rgb[i], 0.0f, 1.0f), 0.007) << i;
   }
 }
 

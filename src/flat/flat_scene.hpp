@@ -19,7 +19,8 @@ struct FlatScene {
   std::vector<TriangleAttributes<T>> triangle_attributes;
   std::vector<Material<T>> materials;
   std::vector<Texture<T>> textures;
-  std::vector<float> texels;
+  std::vector<u8> texels;         // sRGB bytes, three a texel
+  std::vector<float> srgb_decode;  // the linear value of each byte
   std::vector<Vec3<T>> perlin_gradients;
   std::vector<u32> perlin_permutations;
   Camera<T> camera;
@@ -48,7 +49,8 @@ SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
                       place(scene.materials, "copying the materials"),
                       place(scene.textures, "copying the textures"),
                       // Every image texture's texels in one array; ImageTexture::offset says where each starts.
-                      TextureData<T>{place(scene.texels, "copying the texels"), place(scene.perlin_gradients, "copying the noise tables"),
+                      TextureData<T>{place(scene.texels, "copying the texels"), place(scene.srgb_decode, "copying the sRGB table"),
+                                     place(scene.perlin_gradients, "copying the noise tables"),
                                      place(scene.perlin_permutations, "copying the noise tables")},
                       scene.camera,
                       scene.background,

@@ -9,6 +9,7 @@
 
 #include "flat/bvh_builder.hpp"
 #include "flat/number_formats.hpp"
+#include "image/image_io.hpp"
 
 namespace pt {
 
@@ -402,6 +403,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   for (const Material<double>& m : scene.materials) flat.materials.push_back(to<T>(m));
   for (const Texture<double>& t : textures) flat.textures.push_back(to<T>(t));
   flat.texels = scene.texels;
+  flat.srgb_decode = srgb_decode_table();
   make_perlin_tables(flat);
   flat.camera = make_camera<T>(camera, settings.width, settings.height);
   flat.background = Background<T>{to<T>(scene.background.horizon), to<T>(scene.background.zenith)};
@@ -424,7 +426,7 @@ template <class T>
 std::size_t FlatScene<T>::bytes() const {
   return nodes.size() * sizeof(nodes[0]) + wide_nodes.size() * sizeof(WideBvhNode<T>) + primitives.size() * sizeof(primitives[0]) + boundaries.size() * sizeof(boundaries[0]) +
          triangle_attributes.size() * sizeof(TriangleAttributes<T>) + materials.size() * sizeof(Material<T>) +
-         textures.size() * sizeof(Texture<T>) + texels.size() * sizeof(float) + perlin_gradients.size() * sizeof(Vec3<T>) +
+         textures.size() * sizeof(Texture<T>) + texels.size() + srgb_decode.size() * sizeof(float) + perlin_gradients.size() * sizeof(Vec3<T>) +
          perlin_permutations.size() * sizeof(u32);
 }
 

@@ -31,7 +31,7 @@ float linear_to_srgb(float c) {
   return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
 }
 
-LinearImage read_texture_image(const std::filesystem::path& path) {
+TextureImage read_texture_image(const std::filesystem::path& path) {
   int width = 0, height = 0, channels = 0;
   if (!stbi_info(path.c_str(), &width, &height, &channels)) {
     std::error_code error;
@@ -46,15 +46,18 @@ LinearImage read_texture_image(const std::filesystem::path& path) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot decode image file '{}': {}", path.string(), reason ? reason : "unknown error"));
   }
-  std::array<float, 256> decode;
-  for (int i = 0; i < 256; ++i) decode[i] = srgb_to_linear(static_cast<float>(i) / 255.0f);
-  LinearImage image;
+  TextureImage image;
   image.width = static_cast<u32>(width);
   image.height = static_cast<u32>(height);
-  image.rgb.resize(static_cast<std::size_t>(width) * height * 3);
-  for (std::size_t i = 0; i < image.rgb.size(); ++i) image.rgb[i] = decode[pixels[i]];
+  image.srgb.assign(pixels, pixels + static_cast<std::size_t>(width) * height * 3);
   stbi_image_free(pixels);
   return image;
+}
+
+std::vector<float> srgb_decode_table() {
+  std::vector<float> table(256);
+  for (int i = 0; i < 256; ++i) table[i] = srgb_to_linear(static_cast<float>(i) / 255.0f);
+  return table;
 }
 
 ImageFormat image_format_for(const std::filesystem::path& path) {

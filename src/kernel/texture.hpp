@@ -30,7 +30,8 @@ inline constexpr u32 kPerlinPoints = 256;
 // Read-only data textures index into: the shared texel buffer and the Perlin tables.
 template <class T>
 struct TextureData {
-  const float* texels = nullptr;              // 3 floats per texel
+  const u8* texels = nullptr;                 // 3 sRGB-encoded bytes per texel
+  const float* srgb_decode = nullptr;         // 256 entries: the linear value of each byte
   const Vec3<T>* perlin_gradients = nullptr;  // kPerlinPoints unit vectors
   const u32* perlin_permutations = nullptr;   // 3 * kPerlinPoints entries: x, y and z permutations
 };
@@ -90,12 +91,13 @@ PT_HD inline Color<T> image_lookup(const TextureData<T>& data, const ImageTextur
   const T x0f = floor(x), y0f = floor(y);
   const T fx = x - x0f, fy = y - y0f;
   const i32 w = static_cast<i32>(image.width), h = static_cast<i32>(image.height);
-  auto wrap = [](i32 a, i32 n) { return ((a % n) + n) % n; };
+  // Neighbours of a texel inside the image need no division; the modulo is for the wrap-around.
+  auto wrap = [](i32 a, i32 n) { return a >= 0 && a < n ? a : ((a % n) + n) % n; };
   const i32 x0 = wrap(static_cast<i32>(x0f), w), x1 = wrap(static_cast<i32>(x0f) + 1, w);
   const i32 y0 = wrap(static_cast<i32>(y0f), h), y1 = wrap(static_cast<i32>(y0f) + 1, h);
   auto texel = [&](i32 px, i32 py) {
-    const float* t = data.texels + 3u * (image.offset + static_cast<u32>(py) * image.width + static_cast<u32>(px));
-    return Color<T>{T(t[0]), T(t[1]), T(t[2])};
+    const u8* t = data.texels + 3u * (image.offset + static_cast<u32>(py) * image.width + static_cast<u32>(px));
+    return Color<T>{T(data.srgb_decode[t[0]]), T(data.srgb_decode[t[1]]), T(data.srgb_decode[t[2]])};
   };
   const Color<T> top = lerp(texel(x0, y0), texel(x1, y0), fx);
   const Color<T> bottom = lerp(texel(x0, y1), texel(x1, y1), fx);

@@ -93,7 +93,7 @@ struct SceneDescription {
   CameraSettings camera;
   Background<double> background{{1, 1, 1}, {0.5, 0.7, 1.0}};
   std::vector<Texture<double>> textures;
-  std::vector<float> texels;  // every image texture's linear RGB texels, one after another
+  std::vector<u8> texels;  // every image texture's sRGB-encoded RGB texels (TextureImage), one after another
   std::vector<Material<double>> materials;
   std::vector<SceneObject> objects;
 };

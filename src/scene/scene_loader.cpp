@@ -304,7 +304,7 @@ class SceneReader {
     const std::filesystem::path path = base_folder_ / name;
     const std::string key = path.lexically_normal().string();
     if (const auto it = images_.find(key); it != images_.end()) return it->second;
-    LinearImage image;
+    TextureImage image;
     try {
       image = read_texture_image(path);
     } catch (const InputError& e) {
@@ -312,7 +312,7 @@ class SceneReader {
     }
     if (scene_.texels.size() / 3 + static_cast<u64>(image.width) * image.height > 0xffffffffull) where.fail("the scene's images are too large in total");
     const ImageRef ref{image.width, image.height, static_cast<u32>(scene_.texels.size() / 3)};
-    scene_.texels.insert(scene_.texels.end(), image.rgb.begin(), image.rgb.end());
+    scene_.texels.insert(scene_.texels.end(), image.srgb.begin(), image.srgb.end());
     images_.emplace(key, ref);
     return ref;
   }
