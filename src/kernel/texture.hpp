@@ -10,7 +10,7 @@ namespace pt {
 
 template <class T> struct SolidTexture { Color<T> color; };
 
-// 3-D checker: `odd` where sin(f x) sin(f y) sin(f z) < 0.
+// 3-D checker: `odd` where sin(f x) sin(f y) sin(f z) < 0 (the seed's pattern), cells pi / f wide.
 template <class T> struct CheckerTexture { Color<T> odd, even; T frequency; };
 
 // Checker in texture coordinates: `columns` x `rows` cells over [0,1]^2.
@@ -42,6 +42,13 @@ struct TexturePoint {
   T u, v;
   Vec3<T> p;
 };
+
+// 1 where floor(a) is odd, 0 where it is even (exact for every representable a).
+template <class T>
+PT_HD inline T half_period_parity(T a) {
+  const T whole = floor(a);
+  return whole - constant<T>(2) * floor(whole * constant<T>(0.5));
+}
 
 template <class T>
 PT_HD inline T perlin_noise(const TextureData<T>& data, const Vec3<T>& p) {
@@ -111,8 +118,12 @@ PT_HD inline Color<T> texture_value(const Texture<T>& texture, const TexturePoin
     const TextureData<T>& data;
     PT_HD Color<T> operator()(const SolidTexture<T>& t) const { return t.color; }
     PT_HD Color<T> operator()(const CheckerTexture<T>& t) const {
-      const T s = sin(t.frequency * at.p.x) * sin(t.frequency * at.p.y) * sin(t.frequency * at.p.z);
-      return s < T(0) ? t.odd : t.even;
+      // sin(a) < 0 exactly where floor(a / pi) is odd, so the product of the three sines is negative where an odd
+      // number of the three half-period counts are odd: the same cells without evaluating a sine.
+      const T cells_per_unit = t.frequency / pi<T>();
+      const T odd_count = half_period_parity(cells_per_unit * at.p.x) + half_period_parity(cells_per_unit * at.p.y) +
+                          half_period_parity(cells_per_unit * at.p.z);
+      return odd_count == T(1) || odd_count == T(3) ? t.odd : t.even;
     }
     PT_HD Color<T> operator()(const UvCheckerTexture<T>& t) const {
       const i32 column = static_cast<i32>(floor(at.u * t.columns));
