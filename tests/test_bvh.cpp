@@ -355,8 +355,8 @@ void check_structure(const FlatScene<T>& flat) {
   EXPECT_EQ(max_depth, flat.bvh_depth);
 }
 
-// The wide tree: every primitive in exactly one leaf child whose box holds it, every node reached once, 2 to 4
-// children a node (1 only for a one-leaf scene), and no deeper than the binary tree (the stack is sized by it).
+// The wide tree: every primitive in exactly one leaf child whose box holds it, every node reached once, 2 to
+// kWideBvhWidth children a node (1 only for a one-leaf scene), and no deeper than the binary tree (the stack is sized by it).
 template <class T>
 void check_wide_structure(const FlatScene<T>& flat) {
   const std::vector<WideBvhNode<T>>& nodes = flat.wide_nodes;

@@ -13,7 +13,7 @@ namespace pt {
 template <class T>
 struct FlatScene {
   std::vector<BvhNode<T>> nodes;
-  std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, four children a node (kTraverseWideBvh)
+  std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, up to kWideBvhWidth children a node (kTraverseWideBvh)
   std::vector<Primitive<T>> primitives;
   std::vector<Primitive<T>> boundaries;
   std::vector<TriangleAttributes<T>> triangle_attributes;

@@ -180,7 +180,7 @@ BvhNode<T> padded_node(const BvhNode<double>& n) {
 }
 
 // The wide tree: each wide node takes the children of a binary node and keeps opening its largest inner child
-// (by surface area) until it has four children or only leaves. Leaves become children of their wide parent.
+// (by surface area) until it has kWideBvhWidth children or only leaves. Leaves become children of their wide parent.
 template <class T>
 class WideBvhBuilder {
  public:

@@ -21,15 +21,15 @@ struct BvhNode {
 // The builder never makes a deeper tree, so a traversal stack of this size cannot overflow.
 inline constexpr u32 kBvhMaxDepth = 64;
 
-// The same tree with every other level folded in: a node holds up to four children's boxes, stored by plane
-// (bounds[plane][child], planes lo x, y, z then hi x, y, z) so that one box test covers the four children with
-// one SIMD lane each on a CPU. A child with count 0 is the node at `child`; otherwise it is a leaf, primitives
-// [child, child + count). Slots from `child_count` on repeat the first child's box and are never entered.
+// The same tree with levels folded together: a node holds up to eight children's boxes, stored by plane
+// (bounds[plane][child], planes lo x, y, z then hi x, y, z) so that one box test covers the children with one
+// SIMD lane each on a CPU (eight lanes with AVX, two groups of four with SSE). A child with count 0 is the node
+// at `child`; otherwise it is a leaf, primitives [child, child + count). Slots from `child_count` on repeat the first child's box and are never entered.
 // The two masks say which slots below child_count are leaves and which are inner nodes (bit i for slot i), so that
 // traversal splits the entered children with two ANDs.
-inline constexpr u32 kWideBvhWidth = 4;
+inline constexpr u32 kWideBvhWidth = 8;
 template <class T>
-struct alignas(16) WideBvhNode {
+struct alignas(32) WideBvhNode {
   T bounds[6][kWideBvhWidth];
   u32 child[kWideBvhWidth];
   u32 count[kWideBvhWidth];
@@ -38,7 +38,7 @@ struct alignas(16) WideBvhNode {
 };
 
 // Which layout closest_hit walks. GPU threads are the SIMD lanes already, and a wide node would lengthen each
-// thread's serial work, so GPUs keep the binary tree; host CPUs test four boxes at once.
+// thread's serial work, so GPUs keep the binary tree; host CPUs test a node's boxes at once.
 #if defined(__CUDA_ARCH__)
 inline constexpr bool kTraverseWideBvh = false;
 #else
@@ -229,7 +229,7 @@ struct PlaneRows {
   u32 near_x, near_y, near_z, far_x, far_y, far_z;
 };
 
-// Entry distances of the ray into the four child boxes of a node, and a mask with bit i set where child i is
+// Entry distances of the ray into the child boxes of a node, and a mask with bit i set where child i is
 // entered (slots past child_count included: the node's masks leave them out).
 template <class T>
 PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
@@ -250,32 +250,47 @@ PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows
 }
 
 #if !defined(__CUDA_ARCH__) && (defined(__GNUC__) || defined(__clang__))
-// The same test for float in four-lane vectors (GCC/Clang vector extensions: SSE on x86-64, NEON on ARM), which
-// GCC 12 does not find by itself in the loop above. Same operations in the same order, so the same distances:
-// `a > b ? a : b` is exactly what the scalar max does. The mask comes from one compare instead of four branches.
+// The same test for float in vector registers (GCC/Clang vector extensions), which GCC 12 does not find by itself
+// in the loop above: the children in groups of kBoxTestLanes, eight with AVX, four otherwise (SSE on x86-64, NEON
+// on ARM). Same operations in the same order, so the same distances: `a > b ? a : b` is exactly what the scalar
+// max does. The mask of entered children comes from one compare per group instead of a branch per child.
+#if defined(__AVX__) && !defined(PT_SYCL_KERNELS)
+inline constexpr u32 kBoxTestLanes = 8;
+#else
+inline constexpr u32 kBoxTestLanes = 4;
+#endif
+static_assert(kWideBvhWidth % kBoxTestLanes == 0);
+
 inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
                          float t_min, float closest, float* entry) {
-  typedef float Lanes __attribute__((vector_size(16)));
-  typedef int Mask __attribute__((vector_size(16)));
-  auto row = [&](u32 r) {
-    Lanes v;
-    __builtin_memcpy(&v, node.bounds[r], sizeof v);
-    return v;
-  };
+  typedef float Lanes __attribute__((vector_size(4 * kBoxTestLanes)));
+  typedef int Mask __attribute__((vector_size(4 * kBoxTestLanes)));
   auto vmax = [](Lanes a, Lanes b) { return a > b ? a : b; };
   auto vmin = [](Lanes a, Lanes b) { return a < b ? a : b; };
-  const Lanes x0 = row(rows.near_x) * inv.x - origin_term.x, x1 = row(rows.far_x) * inv.x - origin_term.x;
-  const Lanes y0 = row(rows.near_y) * inv.y - origin_term.y, y1 = row(rows.far_y) * inv.y - origin_term.y;
-  const Lanes z0 = row(rows.near_z) * inv.z - origin_term.z, z1 = row(rows.far_z) * inv.z - origin_term.z;
-  const Lanes near = vmax(vmax(x0, y0), vmax(z0, Lanes{t_min, t_min, t_min, t_min}));
-  const Lanes far = vmin(vmin(x1, y1), vmin(z1, Lanes{closest, closest, closest, closest}));
-  __builtin_memcpy(entry, &near, sizeof near);
-  const Mask inside = near <= far;  // all ones where entered
-#if defined(__SSE__) && !defined(PT_SYCL_KERNELS)  // SYCL kernels may be compiled for a GPU: no x86 builtins there
-  return static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside)));
+  const Lanes lower = Lanes{} + t_min, upper = Lanes{} + closest;
+  u32 entered = 0;
+  for (u32 first = 0; first < kWideBvhWidth; first += kBoxTestLanes) {
+    auto row = [&](u32 r) {
+      Lanes v;
+      __builtin_memcpy(&v, node.bounds[r] + first, sizeof v);
+      return v;
+    };
+    const Lanes x0 = row(rows.near_x) * inv.x - origin_term.x, x1 = row(rows.far_x) * inv.x - origin_term.x;
+    const Lanes y0 = row(rows.near_y) * inv.y - origin_term.y, y1 = row(rows.far_y) * inv.y - origin_term.y;
+    const Lanes z0 = row(rows.near_z) * inv.z - origin_term.z, z1 = row(rows.far_z) * inv.z - origin_term.z;
+    const Lanes near = vmax(vmax(x0, y0), vmax(z0, lower));
+    const Lanes far = vmin(vmin(x1, y1), vmin(z1, upper));
+    __builtin_memcpy(entry + first, &near, sizeof near);
+    const Mask inside = near <= far;  // all ones where entered
+#if defined(__AVX__) && !defined(PT_SYCL_KERNELS)
+    entered |= static_cast<u32>(__builtin_ia32_movmskps256(reinterpret_cast<Lanes>(inside))) << first;
+#elif defined(__SSE__) && !defined(PT_SYCL_KERNELS)  // SYCL kernels may be compiled for a GPU: no x86 builtins there
+    entered |= static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside))) << first;
 #else
-  return (inside[0] & 1u) | (inside[1] & 2u) | (inside[2] & 4u) | (inside[3] & 8u);
+    for (u32 lane = 0; lane < kBoxTestLanes; ++lane) entered |= static_cast<u32>(inside[lane] & 1) << (first + lane);
 #endif
+  }
+  return entered;
 }
 #endif
 
@@ -292,7 +307,7 @@ PT_HD inline bool intersect_wide_leaves(const SceneView<T>& scene, const Ray<T>&
   return found;
 }
 
-// Closest hit along the ray beyond t_min over the wide tree. Each node's four boxes are tested together; leaves
+// Closest hit along the ray beyond t_min over the wide tree. Each node's boxes are tested together; leaves
 // among the children are intersected at once (they narrow `closest` before anything is pushed), the inner children
 // that were entered in front of the closest hit are visited nearest first, the rest pushed. The leaf tests are a
 // branch of their own, away from the loop over inner children: the primitive tests need many registers, and with
@@ -328,7 +343,7 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
         node_index = node.child[first];
         continue;
       }
-      // Two to four: sorted by entry distance (insertion sort), the nearest visited next, the others pushed.
+      // More: sorted by entry distance (insertion sort), the nearest visited next, the others pushed.
       u32 inner[kWideBvhWidth];
       T inner_entry[kWideBvhWidth];
       inner[0] = node.child[first];
