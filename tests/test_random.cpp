@@ -217,6 +217,38 @@ TEST(SamplingHelpers, UnitVectorsAreUnitAndUniformOnTheSphere) {
   EXPECT_LT(length(sum / static_cast<double>(n)), 5 * std::sqrt(1.0 / (3 * n)));
 }
 
+TEST(SamplingHelpers, CosSinOfTurnsIsWithinTwoTenthsOfAMillionthOfTheLibrary) {
+  // Every 24-bit draw a sampler can pass (uniform<float> has 24 random bits), against double-precision cos and sin.
+  double worst = 0, worst_norm = 0;
+  for (u32 bits = 0; bits < (1u << 24); bits += 7) {
+    const float turns = ScalarTraits<float>::from_unit_bits(bits);
+    float c, s;
+    cos_sin_turns(turns, c, s);
+    const double angle = 2 * 3.14159265358979323846 * double(turns);
+    worst = std::max({worst, std::abs(double(c) - std::cos(angle)), std::abs(double(s) - std::sin(angle))});
+    worst_norm = std::max(worst_norm, std::abs(double(c) * c + double(s) * s - 1));
+  }
+  EXPECT_LT(worst, 2e-7);
+  EXPECT_LT(worst_norm, 4e-7);
+  // Whole quarter turns are exact.
+  const float quarters[4][3] = {{0.0f, 1.0f, 0.0f}, {0.25f, 0.0f, 1.0f}, {0.5f, -1.0f, 0.0f}, {0.75f, 0.0f, -1.0f}};
+  for (const auto& q : quarters) {
+    float c, s;
+    cos_sin_turns(q[0], c, s);
+    EXPECT_EQ(c, q[1]) << q[0];
+    EXPECT_EQ(s, q[2]) << q[0];
+  }
+  // The other scalar types agree with the float one.
+  for (const double turns : {0.1, 0.3, 0.55, 0.9}) {
+    double c, s;
+    cos_sin_turns(turns, c, s);
+    float cf, sf;
+    cos_sin_turns(float(turns), cf, sf);
+    EXPECT_NEAR(c, cf, 3e-7) << turns;
+    EXPECT_NEAR(s, sf, 3e-7) << turns;
+  }
+}
+
 TEST(SamplingHelpers, DiskPointsAreUniformInTheUnitDisk) {
   // Uniform over the area: r^2 is uniform in [0, 1], and the angle is uniform.
   constexpr int n = 100000, kBins = 20;

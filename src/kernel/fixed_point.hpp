@@ -259,6 +259,13 @@ struct ScalarTraits<Fixed<I, F>> {
     sin_cos(x, s, c);
     return T::from_wide(c, fixed_detail::kUnitBits);
   }
+  PT_HD static constexpr void cos_sin_turns(T turns, T& c, T& s) {
+    const T angle = T(2.0) * T(3.14159265358979323846) * turns;
+    i64 sw, cw;
+    sin_cos(angle, sw, cw);
+    c = T::from_wide(cw, fixed_detail::kUnitBits);
+    s = T::from_wide(sw, fixed_detail::kUnitBits);
+  }
   PT_HD static constexpr T atan2(T y, T x) {
     const u128 ay = static_cast<u128>(y.raw < 0 ? -static_cast<i128>(y.raw) : static_cast<i128>(y.raw));
     const u128 ax = static_cast<u128>(x.raw < 0 ? -static_cast<i128>(x.raw) : static_cast<i128>(x.raw));

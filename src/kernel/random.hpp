@@ -67,16 +67,18 @@ template <class T>
 PT_HD inline Vec3<T> uniform_unit_vector(T u1, T u2) {
   const T z = T(1) - constant<T>(2) * u1;
   const T r = sqrt(max(T(0), T(1) - z * z));
-  const T phi = constant<T>(2) * pi<T>() * u2;
-  return {r * cos(phi), r * sin(phi), z};
+  T c, s;
+  cos_sin_turns(u2, c, s);
+  return {r * c, r * s, z};
 }
 
 // Uniformly distributed point in the unit disk (polar mapping with the square root for uniform area).
 template <class T>
 PT_HD inline Vec3<T> uniform_in_unit_disk(T u1, T u2) {
   const T r = sqrt(u1);
-  const T phi = constant<T>(2) * pi<T>() * u2;
-  return {r * cos(phi), r * sin(phi), T(0)};
+  T c, s;
+  cos_sin_turns(u2, c, s);
+  return {r * c, r * s, T(0)};
 }
 
 }  // namespace pt

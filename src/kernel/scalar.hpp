@@ -35,6 +35,22 @@ struct ScalarTraits<float> {
   PT_HD static float epsilon() { return 1e-8f; }
   // BVH slab distances, (bound - origin) / direction, as bound * (1 / d) - origin * (1 / d): one fused multiply-add
   // per plane. A zero component is nudged so that the reciprocal stays finite (no inf - inf).
+  // cos and sin of a fraction of a full turn, 2 pi turns, for sampling directions. A quarter turn is taken off at a
+  // time (exact in float) and the rest, within 1/8 turn, goes through short Taylor polynomials: within 2e-7 of
+  // the library's, at a fraction of the cost of its call (sampling draws one angle per bounce).
+  PT_HD static void cos_sin_turns(float turns, float& c, float& s) {
+    const float quarters = turns * 4.0f;
+    const float nearest = ::floorf(quarters + 0.5f);
+    const float a = (quarters - nearest) * 1.57079632679489662f;  // |a| <= pi / 4
+    const float a2 = a * a;
+    const float sa = a * (1.0f + a2 * (-1.0f / 6 + a2 * (1.0f / 120 + a2 * (-1.0f / 5040 + a2 * (1.0f / 362880)))));
+    const float ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24 + a2 * (-1.0f / 720 + a2 * (1.0f / 40320))));
+    const int quadrant = static_cast<int>(nearest) & 3;  // turns a multiple of a quarter turn further
+    const float odd_c = quadrant & 1 ? -sa : ca, odd_s = quadrant & 1 ? ca : sa;
+    const float sign = quadrant & 2 ? -1.0f : 1.0f;
+    c = sign * odd_c;
+    s = sign * odd_s;
+  }
   PT_HD static float slab_reciprocal(float d) { return 1.0f / (::fabsf(d) > 1e-20f ? d : (d < 0.0f ? -1e-20f : 1e-20f)); }
   PT_HD static float slab_origin_term(float origin, float reciprocal) { return origin * reciprocal; }
   PT_HD static float slab_distance(float bound, float reciprocal, float origin_term) { return bound * reciprocal - origin_term; }
@@ -56,6 +72,11 @@ struct ScalarTraits<double> {
   PT_HD static double largest() { return DBL_MAX; }
   PT_HD static double from_unit_bits(u32 bits24) { return static_cast<double>(bits24) * 0x1p-24; }
   PT_HD static double epsilon() { return 1e-12; }
+  PT_HD static void cos_sin_turns(double turns, double& c, double& s) {
+    const double angle = 6.283185307179586477 * turns;
+    c = ::cos(angle);
+    s = ::sin(angle);
+  }
   PT_HD static double slab_reciprocal(double d) { return 1.0 / (::fabs(d) > 1e-20 ? d : (d < 0.0 ? -1e-20 : 1e-20)); }
   PT_HD static double slab_origin_term(double origin, double reciprocal) { return origin * reciprocal; }
   PT_HD static double slab_distance(double bound, double reciprocal, double origin_term) { return bound * reciprocal - origin_term; }
@@ -65,6 +86,8 @@ struct ScalarTraits<double> {
 template <class T> PT_HD inline T sqrt(T x) { return ScalarTraits<T>::sqrt(x); }
 template <class T> PT_HD inline T sin(T x) { return ScalarTraits<T>::sin(x); }
 template <class T> PT_HD inline T cos(T x) { return ScalarTraits<T>::cos(x); }
+// cos and sin of 2 pi turns.
+template <class T> PT_HD inline void cos_sin_turns(T turns, T& c, T& s) { ScalarTraits<T>::cos_sin_turns(turns, c, s); }
 template <class T> PT_HD inline T atan2(T y, T x) { return ScalarTraits<T>::atan2(y, x); }
 template <class T> PT_HD inline T asin(T x) { return ScalarTraits<T>::asin(x); }
 template <class T> PT_HD inline T log(T x) { return ScalarTraits<T>::log(x); }
