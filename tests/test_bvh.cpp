@@ -207,6 +207,39 @@ TYPED_TEST(BvhMatchesBruteForce, ZeroTminAndRaysStartingOnSurfaces) {
   EXPECT_GT(result.hits, result.rays / 4);
 }
 
+#if !defined(__CUDA_ARCH__) && (defined(__GNUC__) || defined(__clang__))
+// The float box test in vector registers gives exactly the scalar loop's entry distances and mask, whether the
+// children go in groups of four (SSE) or eight (AVX), so the host's instruction set never changes an image.
+TEST(WideBoxTest, VectorGroupsOfFourAndEightMatchTheScalarLoop) {
+  const FlatScene<float> flat = flatten_scene<float>(random_scene(2024), RenderSettings{});
+  ASSERT_GT(flat.wide_nodes.size(), 100u);
+  const std::vector<Ray<float>> rays = random_rays<float>(55, 2000);
+  TestRandom rng(8);
+  int entered_children = 0;
+  for (std::size_t r = 0; r < rays.size(); ++r) {
+    const Vec3<float> inv = slab_reciprocals(rays[r]);
+    const Vec3<float> origin_term = slab_origin_terms(rays[r], inv);
+    const PlaneRows rows{inv.x < 0 ? 3u : 0u, inv.y < 0 ? 4u : 1u, inv.z < 0 ? 5u : 2u, inv.x < 0 ? 0u : 3u, inv.y < 0 ? 1u : 4u, inv.z < 0 ? 2u : 5u};
+    const float closest = r % 2 ? largest<float>() : static_cast<float>(rng.uniform() * 30);
+    for (std::size_t n = r % 7; n < flat.wide_nodes.size(); n += 7) {
+      const WideBvhNode<float>& node = flat.wide_nodes[n];
+      float scalar_entry[kWideBvhWidth], four_entry[kWideBvhWidth], eight_entry[kWideBvhWidth];
+      const u32 scalar = wide_box_test<float>(node, rows, inv, origin_term, 0.001f, closest, scalar_entry);
+      const u32 four = wide_box_test_in_groups<4>(node, rows, inv, origin_term, 0.001f, closest, four_entry);
+      const u32 eight = wide_box_test_in_groups<8>(node, rows, inv, origin_term, 0.001f, closest, eight_entry);
+      ASSERT_EQ(four, scalar) << "node " << n << ", ray " << r;
+      ASSERT_EQ(eight, scalar) << "node " << n << ", ray " << r;
+      for (u32 i = 0; i < kWideBvhWidth; ++i) {
+        ASSERT_EQ(four_entry[i], scalar_entry[i]) << "node " << n << ", ray " << r << ", child " << i;
+        ASSERT_EQ(eight_entry[i], scalar_entry[i]) << "node " << n << ", ray " << r << ", child " << i;
+      }
+      entered_children += __builtin_popcount(scalar & node.inner_mask) + __builtin_popcount(scalar & node.leaf_mask);
+    }
+  }
+  EXPECT_GT(entered_children, 1000);  // the masks compared were not all empty
+}
+#endif
+
 // Fixed point has no infinity: near-axis directions make 1 / d, and the slab distances, exceed the format. The slab
 // test must then clamp them to "beyond the scene" (not subtract two saturated products to zero), so that axis-parallel
 // rays still find exactly what brute force finds. Fewer rays than above: 128-bit divisions make brute force slow.

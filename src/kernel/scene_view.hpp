@@ -24,9 +24,9 @@ inline constexpr u32 kBvhMaxDepth = 64;
 // The same tree with levels folded together: a node holds up to eight children's boxes, stored by plane
 // (bounds[plane][child], planes lo x, y, z then hi x, y, z) so that one box test covers the children with one
 // SIMD lane each on a CPU (eight lanes with AVX, two groups of four with SSE). A child with count 0 is the node
-// at `child`; otherwise it is a leaf, primitives [child, child + count). Slots from `child_count` on repeat the first child's box and are never entered.
-// The two masks say which slots below child_count are leaves and which are inner nodes (bit i for slot i), so that
-// traversal splits the entered children with two ANDs.
+// at `child`; otherwise it is a leaf, primitives [child, child + count). Slots from `child_count` on repeat the
+// first child's box and are never entered. The two masks say which slots below child_count are leaves and which
+// are inner nodes (bit i for slot i), so that traversal splits the entered children with two ANDs.
 inline constexpr u32 kWideBvhWidth = 8;
 template <class T>
 struct alignas(32) WideBvhNode {
@@ -259,17 +259,35 @@ inline constexpr u32 kBoxTestLanes = 8;
 #else
 inline constexpr u32 kBoxTestLanes = 4;
 #endif
-static_assert(kWideBvhWidth % kBoxTestLanes == 0);
 
-inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
-                         float t_min, float closest, float* entry) {
-  typedef float Lanes __attribute__((vector_size(4 * kBoxTestLanes)));
-  typedef int Mask __attribute__((vector_size(4 * kBoxTestLanes)));
+// Vectors of 4 and 8 floats, and the masks their comparisons give (a vector size cannot depend on a template
+// parameter, hence the specialisations).
+template <u32 kLanes>
+struct FloatLanes;
+template <>
+struct FloatLanes<4> {
+  typedef float Values __attribute__((vector_size(16)));
+  typedef int Mask __attribute__((vector_size(16)));
+};
+template <>
+struct FloatLanes<8> {
+  typedef float Values __attribute__((vector_size(32)));
+  typedef int Mask __attribute__((vector_size(32)));
+};
+
+// The vector test with the children in groups of kLanes, 4 or 8 (both can be built anywhere, so that the tests
+// compare them; a group of 8 is one instruction per operation only with AVX).
+template <u32 kLanes>
+inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv,
+                                   const Vec3<float>& origin_term, float t_min, float closest, float* entry) {
+  static_assert(kWideBvhWidth % kLanes == 0);
+  using Lanes = typename FloatLanes<kLanes>::Values;
+  using Mask = typename FloatLanes<kLanes>::Mask;
   auto vmax = [](Lanes a, Lanes b) { return a > b ? a : b; };
   auto vmin = [](Lanes a, Lanes b) { return a < b ? a : b; };
   const Lanes lower = Lanes{} + t_min, upper = Lanes{} + closest;
   u32 entered = 0;
-  for (u32 first = 0; first < kWideBvhWidth; first += kBoxTestLanes) {
+  for (u32 first = 0; first < kWideBvhWidth; first += kLanes) {
     auto row = [&](u32 r) {
       Lanes v;
       __builtin_memcpy(&v, node.bounds[r] + first, sizeof v);
@@ -282,15 +300,22 @@ inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, 
     const Lanes far = vmin(vmin(x1, y1), vmin(z1, upper));
     __builtin_memcpy(entry + first, &near, sizeof near);
     const Mask inside = near <= far;  // all ones where entered
+    u32 group = 0;  // bit i: lane i entered
 #if defined(__AVX__) && !defined(PT_SYCL_KERNELS)
-    entered |= static_cast<u32>(__builtin_ia32_movmskps256(reinterpret_cast<Lanes>(inside))) << first;
-#elif defined(__SSE__) && !defined(PT_SYCL_KERNELS)  // SYCL kernels may be compiled for a GPU: no x86 builtins there
-    entered |= static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside))) << first;
-#else
-    for (u32 lane = 0; lane < kBoxTestLanes; ++lane) entered |= static_cast<u32>(inside[lane] & 1) << (first + lane);
+    if constexpr (kLanes == 8) group = static_cast<u32>(__builtin_ia32_movmskps256(reinterpret_cast<Lanes>(inside))); else
 #endif
+#if defined(__SSE__) && !defined(PT_SYCL_KERNELS)  // SYCL kernels may be compiled for a GPU: no x86 builtins there
+    if constexpr (kLanes == 4) group = static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside))); else
+#endif
+    for (u32 lane = 0; lane < kLanes; ++lane) group |= static_cast<u32>(inside[lane] & 1) << lane;
+    entered |= group << first;
   }
   return entered;
+}
+
+inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
+                         float t_min, float closest, float* entry) {
+  return wide_box_test_in_groups<kBoxTestLanes>(node, rows, inv, origin_term, t_min, closest, entry);
 }
 #endif
 
