@@ -406,15 +406,18 @@ void check_wide_structure(const FlatScene<T>& flat) {
     ASSERT_EQ(visited[index]++, 0) << "wide node " << index << " reached twice";
     max_depth = std::max(max_depth, depth);
     const WideBvhNode<T>& n = nodes[index];
-    ASSERT_LE(n.child_count, kWideBvhWidth);
+    // The used slots come first, without gaps; each is a leaf (count > 0) or an inner node (count 0), never both.
+    const u32 used = n.leaf_mask | n.inner_mask;
+    const u32 child_count = static_cast<u32>(__builtin_popcount(used));
+    ASSERT_EQ(n.leaf_mask & n.inner_mask, 0u) << "wide node " << index;
+    ASSERT_LE(child_count, kWideBvhWidth);
+    ASSERT_EQ(used, (1u << child_count) - 1u) << "wide node " << index;
     if (flat.primitives.size() > 1) {
-      EXPECT_GE(n.child_count, 2u) << "wide node " << index;
+      EXPECT_GE(child_count, 2u) << "wide node " << index;
     }
-    u32 leaf_mask = 0, inner_mask = 0;
-    for (u32 lane = 0; lane < n.child_count; ++lane) (n.count[lane] > 0 ? leaf_mask : inner_mask) |= 1u << lane;
-    EXPECT_EQ(n.leaf_mask, leaf_mask) << "wide node " << index;
-    EXPECT_EQ(n.inner_mask, inner_mask) << "wide node " << index;
-    for (u32 lane = 0; lane < n.child_count; ++lane) {
+    for (u32 lane = 0; lane < child_count; ++lane)
+      EXPECT_EQ(n.count[lane] > 0, (n.leaf_mask >> lane & 1u) != 0) << "wide node " << index << ", slot " << lane;
+    for (u32 lane = 0; lane < child_count; ++lane) {
       if (n.count[lane] == 0) {
         stack.push_back({n.child[lane], depth + 1});
         continue;

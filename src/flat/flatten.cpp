@@ -191,10 +191,9 @@ class WideBvhBuilder {
     if (root.count > 0) {
       const u32 slot = add_node();
       set_child(slot, 0, 0);
-      wide_[slot].child_count = 1;
       wide_[slot].leaf_mask = 1;
     } else if (root.lo.x > root.hi.x) {
-      wide_[add_node()].child_count = 0;  // no primitives: nothing to enter
+      add_node();  // no primitives: no child to enter
     } else {
       emit(0);
     }
@@ -232,7 +231,6 @@ class WideBvhBuilder {
     }
     const u32 slot = add_node();
     for (u32 lane = 0; lane < kWideBvhWidth; ++lane) set_child(slot, lane, children[lane < children.size() ? lane : 0]);
-    wide_[slot].child_count = static_cast<u32>(children.size());
     for (u32 lane = 0; lane < children.size(); ++lane) {
       if (binary_[children[lane]].count > 0) {
         wide_[slot].leaf_mask |= 1u << lane;

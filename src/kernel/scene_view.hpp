@@ -24,16 +24,15 @@ inline constexpr u32 kBvhMaxDepth = 64;
 // The same tree with levels folded together: a node holds up to eight children's boxes, stored by plane
 // (bounds[plane][child], planes lo x, y, z then hi x, y, z) so that one box test covers the children with one
 // SIMD lane each on a CPU (eight lanes with AVX, two groups of four with SSE). A child with count 0 is the node
-// at `child`; otherwise it is a leaf, primitives [child, child + count). Slots from `child_count` on repeat the
-// first child's box and are never entered. The two masks say which slots below child_count are leaves and which
-// are inner nodes (bit i for slot i), so that traversal splits the entered children with two ANDs.
+// at `child`; otherwise it is a leaf, primitives [child, child + count). The two masks say which slots hold a leaf
+// and which an inner node (bit i for slot i), so that traversal splits the entered children with two ANDs; the
+// slots in neither (a node with fewer children) repeat the first child's box and are never entered.
 inline constexpr u32 kWideBvhWidth = 8;
 template <class T>
 struct alignas(32) WideBvhNode {
   T bounds[6][kWideBvhWidth];
   u32 child[kWideBvhWidth];
   u32 count[kWideBvhWidth];
-  u32 child_count;
   u32 leaf_mask, inner_mask;
 };
 
@@ -230,7 +229,7 @@ struct PlaneRows {
 };
 
 // Entry distances of the ray into the child boxes of a node, and a mask with bit i set where child i is
-// entered (slots past child_count included: the node's masks leave them out).
+// entered (unused slots included: the node's masks leave them out).
 template <class T>
 PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
                                T closest, T* entry) {

@@ -3,9 +3,13 @@
 // wavefront stages as parallel loops over their queues.
 #include "backends/cpu/cpu_backend.hpp"
 
+#include <algorithm>
 #include <array>
-#include <chrono>
 #include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <memory>
+#include <vector>
 
 #include <fmt/format.h>
 #include <tbb/task_arena.h>
@@ -18,39 +22,13 @@ namespace pt {
 
 namespace {
 
-// Host storage of the wavefront's pools and queues.
-template <class T>
-struct HostPathPool {
-  std::vector<Vec3<T>> origin, direction;
-  std::vector<T> time;
-  std::vector<Color<T>> radiance, throughput;
-  std::vector<u32> bounce, item;
-  explicit HostPathPool(u32 n) : origin(n), direction(n), time(n), radiance(n), throughput(n), bounce(n), item(n) {}
-  PathPool<T> view() {
-    return PathPool<T>{origin.data(), direction.data(), time.data(), radiance.data(), throughput.data(), bounce.data(), item.data()};
-  }
-};
-
 template <class T>
 class CpuWavefrontStages final : public WavefrontStages {
  public:
   CpuWavefrontStages(ParallelLoop& loop, const SceneView<T>& scene, FilmPixel* film)
-      : WavefrontStages(scene.params.width * scene.params.height, kHostWavefrontPool), loop_(loop), scene_(scene), film_(film),
-        pools_{HostPathPool<T>(pool_capacity()), HostPathPool<T>(pool_capacity())}, hit_t_(pool_capacity()), hit_b1_(pool_capacity()),
-        hit_b2_(pool_capacity()), hit_primitive_(pool_capacity()), escaped_(pool_capacity()),
-        results_(static_cast<std::size_t>(pixels()) * samples_per_batch()) {
-    for (auto& q : material_queues_) q.resize(pool_capacity());
-    view_.hit_t = hit_t_.data();
-    view_.hit_b1 = hit_b1_.data();
-    view_.hit_b2 = hit_b2_.data();
-    view_.hit_primitive = hit_primitive_.data();
-    view_.escaped = escaped_.data();
-    for (u32 m = 0; m < kMaterialClasses; ++m) view_.material_queue[m] = material_queues_[m].data();
-    view_.counters = counters_.data();
-    view_.results = results_.data();
-    view_.pixels = pixels();
-    view_.current = pools_[0].view();
-    view_.next = pools_[1].view();
+      : WavefrontStages(scene.params.width * scene.params.height, kHostWavefrontPool), loop_(loop), scene_(scene), film_(film) {
+    // The same layout as on a GPU, in host memory; make_unique zeroes it, counters included.
+    allocate_wavefront(*this, view_, [&](std::size_t bytes) -> void* { return memory_.emplace_back(std::make_unique<std::byte[]>(bytes)).get(); });
   }
 
   void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
@@ -66,8 +44,9 @@ class CpuWavefrontStages final : public WavefrontStages {
     timed(4, view_.pixels, [&](u32 pixel) { wavefront_accumulate(view_, film_, pixel, sample_count); });
   }
   std::array<u32, kWavefrontCounters> take_counters() override {
-    const std::array<u32, kWavefrontCounters> values = counters_;
-    counters_.fill(0);
+    std::array<u32, kWavefrontCounters> values;
+    std::copy_n(view_.counters, kWavefrontCounters, values.begin());
+    std::fill_n(view_.counters, kWavefrontCounters, 0u);
     return values;
   }
   void swap_pools() override { view_.swap_pools(); }
@@ -83,12 +62,7 @@ class CpuWavefrontStages final : public WavefrontStages {
   ParallelLoop& loop_;
   const SceneView<T>& scene_;
   FilmPixel* film_;
-  HostPathPool<T> pools_[2];
-  std::vector<T> hit_t_, hit_b1_, hit_b2_;
-  std::vector<u32> hit_primitive_, escaped_;
-  std::array<std::vector<u32>, kMaterialClasses> material_queues_;
-  std::array<u32, kWavefrontCounters> counters_{};
-  std::vector<SampleResult<T>> results_;
+  std::vector<std::unique_ptr<std::byte[]>> memory_;  // every array of view_
   WavefrontView<T> view_{};
 };
 
