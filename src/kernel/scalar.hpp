@@ -45,11 +45,25 @@ struct ScalarTraits<float> {
     const float a2 = a * a;
     const float sa = a * (1.0f + a2 * (-1.0f / 6 + a2 * (1.0f / 120 + a2 * (-1.0f / 5040 + a2 * (1.0f / 362880)))));
     const float ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24 + a2 * (-1.0f / 720 + a2 * (1.0f / 40320))));
-    const int quadrant = static_cast<int>(nearest) & 3;  // turns a multiple of a quarter turn further
-    const float odd_c = quadrant & 1 ? -sa : ca, odd_s = quadrant & 1 ? ca : sa;
-    const float sign = quadrant & 2 ? -1.0f : 1.0f;
-    c = sign * odd_c;
-    s = sign * odd_s;
+    // The quadrant (whole quarter turns) is random, so it is applied with bit masks rather than branches, which
+    // would be mispredicted every other time: an odd quadrant swaps the pair and negates the new cosine, the
+    // quadrants 2 and 3 negate both.
+    const u32 quadrant = static_cast<u32>(static_cast<int>(nearest)) & 3u;
+    const u32 swap = 0u - (quadrant & 1u);
+    const u32 sign = (quadrant & 2u) << 30;
+    const u32 sin_bits = bits_of(sa), cos_bits = bits_of(ca);
+    c = float_of(((cos_bits & ~swap) | ((sin_bits ^ 0x80000000u) & swap)) ^ sign);
+    s = float_of(((sin_bits & ~swap) | (cos_bits & swap)) ^ sign);
+  }
+  PT_HD static u32 bits_of(float x) {
+    u32 bits;
+    __builtin_memcpy(&bits, &x, sizeof bits);
+    return bits;
+  }
+  PT_HD static float float_of(u32 bits) {
+    float x;
+    __builtin_memcpy(&x, &bits, sizeof x);
+    return x;
   }
   PT_HD static float slab_reciprocal(float d) { return 1.0f / (::fabsf(d) > 1e-20f ? d : (d < 0.0f ? -1e-20f : 1e-20f)); }
   PT_HD static float slab_origin_term(float origin, float reciprocal) { return origin * reciprocal; }
