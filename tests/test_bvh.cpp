@@ -446,6 +446,63 @@ TYPED_TEST(BvhStructure, WideTreeHoldsEveryPrimitiveOnceAndIsNoDeeper) {
   EXPECT_LT(flat.wide_nodes.size(), flat.nodes.size() / 2);
 }
 
+// Expected cost per ray of a wide tree under the folding's cost model (kWideNodeCost per node visited,
+// kWidePrimitiveCost per primitive tested, visits in proportion to box surface area), in units of the root's area.
+template <class T>
+double box_area(const BvhNode<T>& n) {
+  const double dx = static_cast<double>(n.hi.x - n.lo.x), dy = static_cast<double>(n.hi.y - n.lo.y), dz = static_cast<double>(n.hi.z - n.lo.z);
+  return dx * dy + dy * dz + dz * dx;
+}
+
+template <class T>
+double wide_tree_cost(const FlatScene<T>& flat) {
+  double cost = box_area(flat.nodes[0]) * kWideNodeCost;
+  for (const WideBvhNode<T>& n : flat.wide_nodes)
+    for (u32 used = n.leaf_mask | n.inner_mask, lane = 0; lane < kWideBvhWidth; ++lane) {
+      if (!(used >> lane & 1u)) continue;
+      const double dx = static_cast<double>(n.bounds[3][lane] - n.bounds[0][lane]), dy = static_cast<double>(n.bounds[4][lane] - n.bounds[1][lane]),
+                   dz = static_cast<double>(n.bounds[5][lane] - n.bounds[2][lane]);
+      const double area = dx * dy + dy * dz + dz * dx;
+      cost += n.leaf_mask >> lane & 1u ? area * n.count[lane] * kWidePrimitiveCost : area * kWideNodeCost;
+    }
+  return cost / box_area(flat.nodes[0]);
+}
+
+// The same, and the number of wide nodes, for the folding that opens the inner child with the largest box until a
+// node has kWideBvhWidth children or only leaves, computed on the binary tree.
+template <class T>
+double greedy_folding_cost(const FlatScene<T>& flat, u32 index, std::size_t& nodes) {
+  const std::vector<BvhNode<T>>& b = flat.nodes;
+  std::vector<u32> children{index + 1, b[index].left_first};
+  while (children.size() < kWideBvhWidth) {
+    int widest = -1;
+    for (std::size_t k = 0; k < children.size(); ++k)
+      if (b[children[k]].count == 0 && (widest < 0 || box_area(b[children[k]]) > box_area(b[children[widest]]))) widest = static_cast<int>(k);
+    if (widest < 0) break;
+    const u32 opened = children[widest];
+    children[widest] = opened + 1;
+    children.push_back(b[opened].left_first);
+  }
+  ++nodes;
+  double cost = box_area(b[index]) * kWideNodeCost;
+  for (u32 c : children) cost += b[c].count > 0 ? box_area(b[c]) * b[c].count * kWidePrimitiveCost : greedy_folding_cost(flat, c, nodes);
+  return cost;
+}
+
+// Folding by dynamic programming finds the cheapest wide tree the binary tree allows, so it costs no more than the
+// greedy folding; and where the greedy folding leaves nodes at the bottom with two children, it fills them.
+TYPED_TEST(BvhStructure, FoldedWideTreeCostsNoMoreThanGreedyFoldingWithFewerNodes) {
+  using T = TypeParam;
+  for (u64 seed : {12345u, 777u}) {
+    const FlatScene<T> flat = flatten_scene<T>(random_scene(seed), RenderSettings{});
+    std::size_t greedy_nodes = 0;
+    const double folded = wide_tree_cost(flat), greedy = greedy_folding_cost(flat, 0, greedy_nodes) / box_area(flat.nodes[0]);
+    EXPECT_LE(folded, greedy * (1 + 1e-9)) << "seed " << seed;
+    EXPECT_GT(folded, 1.0);  // at least the root and one primitive
+    EXPECT_LT(flat.wide_nodes.size(), greedy_nodes) << "seed " << seed;
+  }
+}
+
 TYPED_TEST(BvhStructure, EveryPrimitiveInOneLeafAndChildBoxesInsideParents) {
   using T = TypeParam;
   const SceneDescription scene = random_scene(12345);

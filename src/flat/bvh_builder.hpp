@@ -40,4 +40,11 @@ BuiltBvh build_bvh(const std::vector<Aabb>& bounds);
 
 inline constexpr u32 kMaxLeafSize = 4;
 
+// The cost model the wide tree (WideBvhNode) is folded from the binary one with: the expected work of a ray is
+// kWideNodeCost for each wide node it visits and kWidePrimitiveCost for each primitive it tests, and a ray visits a
+// node or leaf with a probability proportional to the surface area of its box. On the seed's scene, primitive
+// weights from 1 to 2 give the same tree (docs/performance-notes.md).
+inline constexpr double kWideNodeCost = 1.0;
+inline constexpr double kWidePrimitiveCost = 1.0;
+
 }  // namespace pt

@@ -3,7 +3,9 @@
 #include "flat/flat_scene.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -179,8 +181,11 @@ BvhNode<T> padded_node(const BvhNode<double>& n) {
   return out;
 }
 
-// The wide tree: each wide node takes the children of a binary node and keeps opening its largest inner child
-// (by surface area) until it has kWideBvhWidth children or only leaves. Leaves become children of their wide parent.
+// The wide tree, folded from the binary one by dynamic programming over its subtrees: each subtree becomes a leaf
+// (its primitives are one contiguous range), a wide node, or is shared out among up to kWideBvhWidth children of
+// its wide parent, whichever gives the least expected cost per ray (kWideNodeCost, kWidePrimitiveCost). Opening
+// the widest boxes greedily, as before, left most nodes at the bottom of the tree with two children.
+
 template <class T>
 class WideBvhBuilder {
  public:
@@ -190,60 +195,125 @@ class WideBvhBuilder {
     const BvhNode<double>& root = binary_[0];
     if (root.count > 0) {
       const u32 slot = add_node();
-      set_child(slot, 0, 0);
+      set_child(slot, 0, 0, root.left_first, root.count);
       wide_[slot].leaf_mask = 1;
     } else if (root.lo.x > root.hi.x) {
       add_node();  // no primitives: no child to enter
     } else {
+      plan();
       emit(0);
     }
     return std::move(wide_);
   }
 
  private:
+  // How a subtree is best represented as at most `slots` children of a wide node.
+  enum class Form : u8 { kLeaf, kNode, kFewerSlots, kShared };
+  struct Choice {
+    double cost = 0;
+    Form form = Form::kLeaf;
+    u8 left_slots = 0;  // kShared: slots given to the left subtree, the rest to the right
+  };
+  using Choices = std::array<Choice, kWideBvhWidth + 1>;  // index: slots, 1 to kWideBvhWidth
+
   u32 add_node() {
     wide_.push_back(WideBvhNode<T>{});
     return static_cast<u32>(wide_.size() - 1);
   }
-  void set_child(u32 slot, u32 lane, u32 binary_index) {
+  void set_child(u32 slot, u32 lane, u32 binary_index, u32 child, u32 count) {
     const BvhNode<T> box = padded_node<T>(binary_[binary_index]);
     const T planes[6] = {box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z};
     for (int p = 0; p < 6; ++p) wide_[slot].bounds[p][lane] = planes[p];
-    wide_[slot].child[lane] = binary_[binary_index].left_first;
-    wide_[slot].count[lane] = binary_[binary_index].count;
+    wide_[slot].child[lane] = child;
+    wide_[slot].count[lane] = count;
   }
   static double area(const BvhNode<double>& n) {
     const Vec3d d = n.hi - n.lo;
     return d.x * d.y + d.y * d.z + d.z * d.x;
   }
-  // Emits the wide node for binary interior node `index`; returns its position.
-  u32 emit(u32 index) {
-    std::vector<u32> children{index + 1, binary_[index].left_first};
-    while (children.size() < kWideBvhWidth) {
-      int widest = -1;
-      for (std::size_t k = 0; k < children.size(); ++k)
-        if (binary_[children[k]].count == 0 && (widest < 0 || area(binary_[children[k]]) > area(binary_[children[widest]])))
-          widest = static_cast<int>(k);
-      if (widest < 0) break;
-      const u32 opened = children[widest];
-      children[widest] = opened + 1;
-      children.push_back(binary_[opened].left_first);
+  bool is_leaf(u32 n) const { return binary_[n].count > 0; }
+  u32 left(u32 n) const { return n + 1; }  // depth-first order: the first child follows its parent
+  u32 right(u32 n) const { return binary_[n].left_first; }
+
+  // The cheapest split of `slots` children between the two subtrees of interior node n.
+  Choice shared(u32 n, u32 slots) const {
+    Choice best{std::numeric_limits<double>::infinity(), Form::kShared, 0};
+    for (u32 k = 1; k < slots; ++k) {
+      const double cost = choices_[left(n)][k].cost + choices_[right(n)][slots - k].cost;
+      if (cost < best.cost) best = Choice{cost, Form::kShared, static_cast<u8>(k)};
     }
+    return best;
+  }
+
+  // Fills choices_ bottom-up (children come after their parent in the binary array), with each subtree's first
+  // primitive and primitive count.
+  void plan() {
+    const std::size_t count = binary_.size();
+    choices_.assign(count, Choices{});
+    first_.assign(count, 0);
+    size_.assign(count, 0);
+    for (std::size_t i = count; i-- > 0;) {
+      const u32 n = static_cast<u32>(i);
+      const double a = area(binary_[n]);
+      if (is_leaf(n)) {
+        first_[n] = binary_[n].left_first;
+        size_[n] = binary_[n].count;
+        for (u32 slots = 1; slots <= kWideBvhWidth; ++slots) choices_[n][slots] = Choice{a * size_[n] * kWidePrimitiveCost, Form::kLeaf, 0};
+        continue;
+      }
+      first_[n] = first_[left(n)];
+      size_[n] = size_[left(n)] + size_[right(n)];
+      Choice one{a * kWideNodeCost + shared(n, kWideBvhWidth).cost, Form::kNode, 0};
+      if (size_[n] <= kMaxLeafSize && a * size_[n] * kWidePrimitiveCost <= one.cost) one = Choice{a * size_[n] * kWidePrimitiveCost, Form::kLeaf, 0};
+      choices_[n][1] = one;
+      for (u32 slots = 2; slots <= kWideBvhWidth; ++slots) {
+        const Choice split = shared(n, slots);
+        choices_[n][slots] = split.cost < choices_[n][slots - 1].cost ? split : Choice{choices_[n][slots - 1].cost, Form::kFewerSlots, 0};
+      }
+    }
+  }
+
+  // The subtrees that become children of one wide node when subtree n gets `slots` of its slots.
+  void gather(u32 n, u32 slots, std::vector<u32>& children) const {
+    const Choice& c = choices_[n][slots];
+    switch (c.form) {
+      case Form::kFewerSlots: return gather(n, slots - 1, children);
+      case Form::kShared:
+        gather(left(n), c.left_slots, children);
+        gather(right(n), slots - c.left_slots, children);
+        return;
+      default: children.push_back(n);
+    }
+  }
+
+  // Emits the wide node for binary interior node n; returns its position.
+  u32 emit(u32 n) {
+    std::vector<u32> children;
+    const Choice split = shared(n, kWideBvhWidth);
+    gather(left(n), split.left_slots, children);
+    gather(right(n), kWideBvhWidth - split.left_slots, children);
     const u32 slot = add_node();
-    for (u32 lane = 0; lane < kWideBvhWidth; ++lane) set_child(slot, lane, children[lane < children.size() ? lane : 0]);
+    for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
+      const u32 m = children[lane < children.size() ? lane : 0];
+      set_child(slot, lane, m, first_[m], size_[m]);
+    }
     for (u32 lane = 0; lane < children.size(); ++lane) {
-      if (binary_[children[lane]].count > 0) {
+      const u32 m = children[lane];
+      if (choices_[m][1].form == Form::kLeaf) {
         wide_[slot].leaf_mask |= 1u << lane;
         continue;
       }
       wide_[slot].inner_mask |= 1u << lane;
-      const u32 child = emit(children[lane]);
+      wide_[slot].count[lane] = 0;
+      const u32 child = emit(m);
       wide_[slot].child[lane] = child;
     }
     return slot;
   }
 
   const std::vector<BvhNode<double>>& binary_;
+  std::vector<Choices> choices_;
+  std::vector<u32> first_, size_;
   std::vector<WideBvhNode<T>> wide_;
 };
 
