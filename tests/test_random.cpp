@@ -33,7 +33,7 @@ DrawInputs vary(DrawInputs base, int axis, u32 value) {
 }
 
 const char* const kAxisNames[5] = {"seed", "pixel", "sample", "bounce", "dimension"};
-constexpr DrawInputs kBase{1, 1234, 5, 2, kDimScatterA};
+constexpr DrawInputs kBase{1, 1234, 5, 2, kDimScatter};
 
 // Pearson's chi-square statistic of the counts against equal expected counts.
 double chi_square(const std::vector<long>& counts, long total) {
@@ -120,20 +120,46 @@ TEST(UniformDraws, ChiSquareUniformAlongEveryInput) {
   }
 }
 
-TEST(UniformDraws, PairsOfDimensionsAreUniformInTheUnitSquare) {
-  // The two jitter dimensions of one sample, 16 x 16 bins: chi-square with 255 degrees of freedom.
+TEST(UniformDraws, PairsAndTwoDimensionsAreUniformInTheUnitSquare) {
+  // The two numbers of the jitter pair of one sample, and two dimensions of it, 16 x 16 bins: chi-square with
+  // 255 degrees of freedom.
   constexpr int kBins = 16;
-  std::vector<long> counts(kBins * kBins, 0);
   const u32 draws = 1u << 18;
-  for (u32 i = 0; i < draws; ++i) {
-    const SampleRandom stream = SampleRandom::make(5, i >> 4, i & 15);
-    const int a = static_cast<int>(stream.uniform<double>(0, kDimPixelX) * kBins);
-    const int b = static_cast<int>(stream.uniform<double>(0, kDimPixelY) * kBins);
-    ++counts[a * kBins + b];
+  for (bool pair : {true, false}) {
+    std::vector<long> counts(kBins * kBins, 0);
+    for (u32 i = 0; i < draws; ++i) {
+      const SampleRandom stream = SampleRandom::make(5, i >> 4, i & 15);
+      double a, b;
+      if (pair) {
+        stream.uniform_pair(0, kDimPixel, a, b);
+      } else {
+        a = stream.uniform<double>(0, kDimPixel);
+        b = stream.uniform<double>(0, kDimTime);
+      }
+      ++counts[static_cast<int>(a * kBins) * kBins + static_cast<int>(b * kBins)];
+    }
+    const double chi2 = chi_square(counts, draws);
+    EXPECT_GT(chi2, 161.5) << (pair ? "pair" : "dimensions");
+    EXPECT_LT(chi2, 377.2) << (pair ? "pair" : "dimensions");
   }
-  const double chi2 = chi_square(counts, draws);
-  EXPECT_GT(chi2, 161.5);
-  EXPECT_LT(chi2, 377.2);
+}
+
+TEST(UniformDraws, FirstOfAPairIsTheDrawOfItsDimension) {
+  test::TestRandom rng(9);
+  for (int i = 0; i < 10000; ++i) {
+    const SampleRandom stream = SampleRandom::make(static_cast<u32>(rng.next()), static_cast<u32>(rng.next()), static_cast<u32>(rng.next()));
+    const u32 bounce = rng.below(64), dimension = rng.below(256);
+    float first, second;
+    stream.uniform_pair(bounce, dimension, first, second);
+    ASSERT_EQ(first, stream.uniform<float>(bounce, dimension));
+    ASSERT_GE(second, 0.0f);
+    ASSERT_LT(second, 1.0f);
+    const BounceRandom at_bounce{&stream, bounce};
+    float again_first, again_second;
+    at_bounce.uniform_pair(dimension, again_first, again_second);
+    ASSERT_EQ(again_first, first);
+    ASSERT_EQ(again_second, second);
+  }
 }
 
 TEST(UniformDraws, NeighbouringInputsAreUncorrelated) {
@@ -165,9 +191,16 @@ TEST(UniformDraws, NeighbouringInputsAreUncorrelated) {
   }
   // Neighbouring pixels at the same sample and dimension, as an image sees them.
   const double r_pixels = correlation([](u32 i) {
-    return std::pair{SampleRandom::make(1, i, 0).uniform<double>(0, kDimPixelX), SampleRandom::make(1, i + 1, 0).uniform<double>(0, kDimPixelX)};
+    return std::pair{SampleRandom::make(1, i, 0).uniform<double>(0, kDimPixel), SampleRandom::make(1, i + 1, 0).uniform<double>(0, kDimPixel)};
   });
   EXPECT_LT(std::abs(r_pixels), bound);
+  // The two numbers of a pair.
+  const double r_pair = correlation([](u32 i) {
+    double a, b;
+    SampleRandom::make(2, i, 3).uniform_pair(1, kDimScatter, a, b);
+    return std::pair{a, b};
+  });
+  EXPECT_LT(std::abs(r_pair), bound);
 }
 
 TEST(UniformDraws, PixelZeroSampleZeroIsNotStuck) {
@@ -255,7 +288,9 @@ TEST(SamplingHelpers, DiskPointsAreUniformInTheUnitDisk) {
   std::vector<long> radial(kBins, 0), angular(kBins, 0);
   for (int i = 0; i < n; ++i) {
     const SampleRandom stream = SampleRandom::make(4, static_cast<u32>(i), 0);
-    const Vec3<double> p = uniform_in_unit_disk(stream.uniform<double>(0, kDimLensU), stream.uniform<double>(0, kDimLensV));
+    double u1, u2;
+    stream.uniform_pair(0, kDimLens, u1, u2);
+    const Vec3<double> p = uniform_in_unit_disk(u1, u2);
     const double r2 = p.x * p.x + p.y * p.y;
     ASSERT_LT(r2, 1.0);
     ASSERT_EQ(p.z, 0.0);

@@ -58,7 +58,9 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
 
     PT_HD Color<T> albedo(u32 texture) const { return texture_value(textures[texture], TexturePoint<T>{at.u, at.v, at.p}, data); }
     PT_HD Vec3<T> random_direction() const {
-      return uniform_unit_vector(random.template uniform<T>(kDimScatterA), random.template uniform<T>(kDimScatterB));
+      T u1, u2;
+      random.uniform_pair(kDimScatter, u1, u2);
+      return uniform_unit_vector(u1, u2);
     }
 
     PT_HD bool operator()(const Lambertian<T>& m) const {
@@ -82,7 +84,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       const T cos_i = min(-dot(in.direction, at.normal), T(1));
       const T sin_t2 = eta * eta * (T(1) - cos_i * cos_i);
       Vec3<T> direction;
-      if (sin_t2 > T(1) || schlick_reflectance(cos_i, eta) > random.template uniform<T>(kDimScatterC))
+      if (sin_t2 > T(1) || schlick_reflectance(cos_i, eta) > random.template uniform<T>(kDimScatterChoice))
         direction = reflect(in.direction, at.normal);
       else
         direction = refract(in.direction, at.normal, eta, cos_i);

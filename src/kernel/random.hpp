@@ -18,15 +18,13 @@ PT_HD inline u64 mix64(u64 x) {
 
 // Which random dimension each decision of a bounce uses. Fixed numbers, so that two integrators that make the
 // same decisions draw the same numbers.
+// A pair dimension gives two numbers from one hash (SampleRandom::uniform_pair), for the two coordinates of a 2-D sample.
 enum RandomDimension : u32 {
-  kDimPixelX = 0,
-  kDimPixelY = 1,
-  kDimLensU = 2,
-  kDimLensV = 3,
+  kDimPixel = 0,  // pair: jitter in x and y
+  kDimLens = 2,   // pair: point on the lens
   kDimTime = 4,
-  kDimScatterA = 8,
-  kDimScatterB = 9,
-  kDimScatterC = 10,
+  kDimScatter = 8,  // pair: scattered direction
+  kDimScatterChoice = 10,  // reflect or refract
   kDimRoulette = 12,
   // A medium draws its free-flight distance from dimension kDimMediumBase + its primitive index, so the draw
   // does not depend on the order in which the acceleration structure visits primitives.
@@ -42,15 +40,26 @@ struct SampleRandom {
     return SampleRandom{mix64(mix64(seed_and_pixel + 0x9e3779b97f4a7c15ULL) ^ (static_cast<u64>(sample) * 0xd1b54a32d192ed03ULL))};
   }
 
-  PT_HD u32 bits(u32 bounce, u32 dimension) const {
+  PT_HD u64 hash(u32 bounce, u32 dimension) const {
     const u64 counter = (static_cast<u64>(bounce) << 32) | dimension;
-    return static_cast<u32>(mix64(key + (counter + 1) * 0x9e3779b97f4a7c15ULL) >> 32);
+    return mix64(key + (counter + 1) * 0x9e3779b97f4a7c15ULL);
   }
+
+  PT_HD u32 bits(u32 bounce, u32 dimension) const { return static_cast<u32>(hash(bounce, dimension) >> 32); }
 
   // Uniform in [0, 1), with 24 random bits (exactly representable in every supported scalar type).
   template <class T>
   PT_HD T uniform(u32 bounce, u32 dimension) const {
     return ScalarTraits<T>::from_unit_bits(bits(bounce, dimension) >> 8);
+  }
+
+  // Two uniforms from one hash: the first is uniform(bounce, dimension), the second takes 24 bits of the hash's
+  // lower half (every output bit of the mix depends on every input bit). Half the hashing of two draws.
+  template <class T>
+  PT_HD void uniform_pair(u32 bounce, u32 dimension, T& first, T& second) const {
+    const u64 h = hash(bounce, dimension);
+    first = ScalarTraits<T>::from_unit_bits(static_cast<u32>(h >> 40));
+    second = ScalarTraits<T>::from_unit_bits(static_cast<u32>(h >> 8) & 0xffffffu);
   }
 };
 
@@ -60,6 +69,8 @@ struct BounceRandom {
   u32 bounce;
   template <class T>
   PT_HD T uniform(u32 dimension) const { return stream->template uniform<T>(bounce, dimension); }
+  template <class T>
+  PT_HD void uniform_pair(u32 dimension, T& first, T& second) const { stream->uniform_pair(bounce, dimension, first, second); }
 };
 
 // Uniformly distributed direction on the unit sphere.

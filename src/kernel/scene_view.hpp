@@ -91,9 +91,12 @@ PT_HD inline Color<T> background_radiance(const Background<T>& background, const
 
 template <class T>
 PT_HD inline Ray<T> camera_ray(const Camera<T>& camera, const RenderParams<T>& params, u32 x, u32 y, const SampleRandom& random) {
-  const T s = (T(x) + random.uniform<T>(0, kDimPixelX)) / T(params.width);
-  const T t = T(1) - (T(y) + random.uniform<T>(0, kDimPixelY)) / T(params.height);
-  const Vec3<T> lens = uniform_in_unit_disk(random.uniform<T>(0, kDimLensU), random.uniform<T>(0, kDimLensV));
+  T jitter_x, jitter_y, lens_u, lens_v;
+  random.uniform_pair(0, kDimPixel, jitter_x, jitter_y);
+  random.uniform_pair(0, kDimLens, lens_u, lens_v);
+  const T s = (T(x) + jitter_x) / T(params.width);
+  const T t = T(1) - (T(y) + jitter_y) / T(params.height);
+  const Vec3<T> lens = uniform_in_unit_disk(lens_u, lens_v);
   const Vec3<T> origin = camera.origin + lens.x * camera.lens_u + lens.y * camera.lens_v;
   const Vec3<T> target = camera.lower_left + s * camera.horizontal + t * camera.vertical;
   const T time = camera.time0 + camera.time_span * random.uniform<T>(0, kDimTime);
