@@ -370,6 +370,13 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
         node_index = node.child[first];
         continue;
       }
+      if ((inner_mask & (inner_mask - 1u)) == 0) {  // two: the nearer visited next, the other pushed, without a branch
+        const u32 second = lowest_set_bit(inner_mask);
+        const bool swap = entry[first] > entry[second];
+        stack[stack_size++] = node.child[swap ? first : second];
+        node_index = node.child[swap ? second : first];
+        continue;
+      }
       // More: sorted by entry distance (insertion sort), the nearest visited next, the others pushed.
       u32 inner[kWideBvhWidth];
       T inner_entry[kWideBvhWidth];
