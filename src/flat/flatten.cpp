@@ -185,7 +185,6 @@ BvhNode<T> padded_node(const BvhNode<double>& n) {
 // (its primitives are one contiguous range), a wide node, or is shared out among up to kWideBvhWidth children of
 // its wide parent, whichever gives the least expected cost per ray (kWideNodeCost, kWidePrimitiveCost). Opening
 // the widest boxes greedily, as before, left most nodes at the bottom of the tree with two children.
-
 template <class T>
 class WideBvhBuilder {
  public:

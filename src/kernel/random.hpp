@@ -17,8 +17,8 @@ PT_HD inline u64 mix64(u64 x) {
 }
 
 // Which random dimension each decision of a bounce uses. Fixed numbers, so that two integrators that make the
-// same decisions draw the same numbers.
-// A pair dimension gives two numbers from one hash (SampleRandom::uniform_pair), for the two coordinates of a 2-D sample.
+// same decisions draw the same numbers. A pair dimension gives the two coordinates of a 2-D sample from one hash
+// (SampleRandom::uniform_pair).
 enum RandomDimension : u32 {
   kDimPixel = 0,  // pair: jitter in x and y
   kDimLens = 2,   // pair: point on the lens
