@@ -278,9 +278,13 @@ struct FloatLanes<8> {
 };
 
 // The vector test with the children in groups of kLanes, 4 or 8 (both can be built anywhere, so that the tests
-// compare them; a group of 8 is one instruction per operation only with AVX).
+// compare them; a group of 8 is one instruction per operation only with AVX). It does not pick the plane rows by
+// the ray's direction: it computes both planes of an axis and orders them with a min and a max, which give the
+// same two distances (with a fixed reciprocal the rounded plane distance is monotonic in the bound, see BoxRay).
+// The six row offsets of a ray were reloaded from the stack at every node (general registers run out in the
+// traversal loop); two more vector operations per axis cost less.
 template <u32 kLanes>
-inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv,
+inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRows&, const Vec3<float>& inv,
                                    const Vec3<float>& origin_term, float t_min, float closest, float* entry) {
   static_assert(kWideBvhWidth % kLanes == 0);
   using Lanes = typename FloatLanes<kLanes>::Values;
@@ -295,9 +299,12 @@ inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRo
       __builtin_memcpy(&v, node.bounds[r] + first, sizeof v);
       return v;
     };
-    const Lanes x0 = row(rows.near_x) * inv.x - origin_term.x, x1 = row(rows.far_x) * inv.x - origin_term.x;
-    const Lanes y0 = row(rows.near_y) * inv.y - origin_term.y, y1 = row(rows.far_y) * inv.y - origin_term.y;
-    const Lanes z0 = row(rows.near_z) * inv.z - origin_term.z, z1 = row(rows.far_z) * inv.z - origin_term.z;
+    const Lanes x_lo = row(0) * inv.x - origin_term.x, x_hi = row(3) * inv.x - origin_term.x;
+    const Lanes y_lo = row(1) * inv.y - origin_term.y, y_hi = row(4) * inv.y - origin_term.y;
+    const Lanes z_lo = row(2) * inv.z - origin_term.z, z_hi = row(5) * inv.z - origin_term.z;
+    const Lanes x0 = vmin(x_lo, x_hi), x1 = vmax(x_lo, x_hi);
+    const Lanes y0 = vmin(y_lo, y_hi), y1 = vmax(y_lo, y_hi);
+    const Lanes z0 = vmin(z_lo, z_hi), z1 = vmax(z_lo, z_hi);
     const Lanes near = vmax(vmax(x0, y0), vmax(z0, lower));
     const Lanes far = vmin(vmin(x1, y1), vmin(z1, upper));
     __builtin_memcpy(entry + first, &near, sizeof near);
