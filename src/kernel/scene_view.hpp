@@ -377,7 +377,7 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
         node_index = node.child[first];
         continue;
       }
-      if ((inner_mask & (inner_mask - 1u)) == 0) {  // two: the nearer visited next, the other pushed, without a branch
+      if ((inner_mask & (inner_mask - 1u)) == 0) {  // two: the nearer visited next, the other pushed, without sorting
         const u32 second = lowest_set_bit(inner_mask);
         const bool swap = entry[first] > entry[second];
         stack[stack_size++] = node.child[swap ? first : second];
