@@ -31,7 +31,7 @@ TYPED_TEST(CheckerTextures, CellsAreWhereTheProductOfSinesIsNegative) {
   const Color<T> odd = to<T>({0.2, 0.3, 0.1}), even = to<T>({0.9, 0.9, 0.9});
   std::mt19937 rng(7);
   for (const double frequency : {10.0, 1.0, 0.37}) {
-    const Texture<T> checker = CheckerTexture<T>{odd, even, T(frequency)};
+    const Texture<T> checker = CheckerTexture<T>{odd, even, T(frequency / 3.14159265358979323846)};
     std::uniform_real_distribution<double> coordinate(-200.0, 200.0);
     int odd_cells = 0, checked = 0;
     for (int i = 0; i < 20000; ++i) {
@@ -53,7 +53,7 @@ TYPED_TEST(CheckerTextures, CellsAreWhereTheProductOfSinesIsNegative) {
 TYPED_TEST(CheckerTextures, CellsAreHalfPeriodsWide) {
   using T = TypeParam;
   const Color<T> odd = to<T>({0, 0, 0}), even = to<T>({1, 1, 1});
-  const Texture<T> checker = CheckerTexture<T>{odd, even, T(10)};
+  const Texture<T> checker = CheckerTexture<T>{odd, even, T(10 / 3.14159265358979323846)};
   const double cell = 3.14159265358979323846 / 10;
   // Along x, with y and z inside cells where their sines are positive, the colour flips at every multiple of pi/10.
   const T y = T(0.5 * cell), z = T(0.5 * cell);

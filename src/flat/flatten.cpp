@@ -38,7 +38,7 @@ Texture<T> to(const Texture<double>& texture) {
   struct Convert {
     Texture<T> operator()(const SolidTexture<double>& t) const { return SolidTexture<T>{to<T>(t.color)}; }
     Texture<T> operator()(const CheckerTexture<double>& t) const {
-      return CheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.frequency)};
+      return CheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.cells_per_unit)};
     }
     Texture<T> operator()(const UvCheckerTexture<double>& t) const {
       return UvCheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.columns), scalar<T>(t.rows)};
@@ -100,7 +100,7 @@ Primitive<double> scaled(const Primitive<double>& primitive, double s) {
 
 // Textures that read the world position keep their pattern in place on the scaled scene.
 Texture<double> scaled(Texture<double> texture, double s) {
-  if (auto* t = std::get_if<CheckerTexture<double>>(&texture)) t->frequency /= s;
+  if (auto* t = std::get_if<CheckerTexture<double>>(&texture)) t->cells_per_unit /= s;
   if (auto* t = std::get_if<NoiseTexture<double>>(&texture)) t->scale /= s;
   return texture;
 }

@@ -33,8 +33,6 @@ struct ScalarTraits<float> {
   PT_HD static float from_unit_bits(u32 bits24) { return static_cast<float>(bits24) * 0x1p-24f; }
   // Relative size of the tolerance used where two surfaces meet (grazing tests, degenerate triangles).
   PT_HD static float epsilon() { return 1e-8f; }
-  // BVH slab distances, (bound - origin) / direction, as bound * (1 / d) - origin * (1 / d): one fused multiply-add
-  // per plane. A zero component is nudged so that the reciprocal stays finite (no inf - inf).
   // cos and sin of a fraction of a full turn, 2 pi turns, for sampling directions. A quarter turn is taken off at a
   // time (exact in float) and the rest, within 1/8 turn, goes through short Taylor polynomials: within 2e-7 of
   // the library's, at a fraction of the cost of its call (sampling draws one angle per bounce).
@@ -65,6 +63,8 @@ struct ScalarTraits<float> {
     __builtin_memcpy(&x, &bits, sizeof x);
     return x;
   }
+  // BVH slab distances, (bound - origin) / direction, as bound * (1 / d) - origin * (1 / d): one fused multiply-add
+  // per plane. A zero component is nudged so that the reciprocal stays finite (no inf - inf).
   PT_HD static float slab_reciprocal(float d) { return 1.0f / (::fabsf(d) > 1e-20f ? d : (d < 0.0f ? -1e-20f : 1e-20f)); }
   PT_HD static float slab_origin_term(float origin, float reciprocal) { return origin * reciprocal; }
   PT_HD static float slab_distance(float bound, float reciprocal, float origin_term) { return bound * reciprocal - origin_term; }

@@ -10,8 +10,9 @@ namespace pt {
 
 template <class T> struct SolidTexture { Color<T> color; };
 
-// 3-D checker: `odd` where sin(f x) sin(f y) sin(f z) < 0 (the seed's pattern), cells pi / f wide.
-template <class T> struct CheckerTexture { Color<T> odd, even; T frequency; };
+// 3-D checker: `odd` where sin(f x) sin(f y) sin(f z) < 0 (the seed's pattern with frequency f), which is cells
+// pi / f wide: stored as cells per unit length, f / pi, worked out once on the host rather than at every lookup.
+template <class T> struct CheckerTexture { Color<T> odd, even; T cells_per_unit; };
 
 // Checker in texture coordinates: `columns` x `rows` cells over [0,1]^2.
 template <class T> struct UvCheckerTexture { Color<T> odd, even; T columns, rows; };
@@ -120,9 +121,8 @@ PT_HD inline Color<T> texture_value(const Texture<T>& texture, const TexturePoin
     PT_HD Color<T> operator()(const CheckerTexture<T>& t) const {
       // sin(a) < 0 exactly where floor(a / pi) is odd, so the product of the three sines is negative where an odd
       // number of the three half-period counts are odd: the same cells without evaluating a sine.
-      const T cells_per_unit = t.frequency / pi<T>();
-      const T odd_count = half_period_parity(cells_per_unit * at.p.x) + half_period_parity(cells_per_unit * at.p.y) +
-                          half_period_parity(cells_per_unit * at.p.z);
+      const T odd_count = half_period_parity(t.cells_per_unit * at.p.x) + half_period_parity(t.cells_per_unit * at.p.y) +
+                          half_period_parity(t.cells_per_unit * at.p.z);
       return odd_count == T(1) || odd_count == T(3) ? t.odd : t.even;
     }
     PT_HD Color<T> operator()(const UvCheckerTexture<T>& t) const {

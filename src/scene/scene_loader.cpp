@@ -262,7 +262,7 @@ class SceneReader {
     if (type == "checker") {
       n.allow_keys({"type", "odd", "even", "frequency"});
       const double f = n.has("frequency") ? n.child("frequency").positive() : 10.0;
-      return add_texture(CheckerTexture<double>{n.at("odd").color(), n.at("even").color(), f});
+      return add_texture(CheckerTexture<double>{n.at("odd").color(), n.at("even").color(), f / 3.14159265358979323846});
     }
     if (type == "uv_checker") {
       n.allow_keys({"type", "odd", "even", "columns", "rows"});
