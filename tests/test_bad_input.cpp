@@ -114,7 +114,7 @@ std::vector<BadScene> bad_scenes() {
        R"("samples_per_pixel": ^0)"},
       {"DepthAboveLimit", with("\"max_depth\": 4", "\"max_depth\": 10001"), "/render/max_depth", "10001 is outside the allowed range", "^10001"},
       {"NegativeSeed", with("\"max_depth\": 4", "\"max_depth\": 4, \"seed\": -3"), "/render/seed", "must not be negative, found -3", "^-3"},
-      {"NegativeTmin", with("\"max_depth\": 4", "\"max_depth\": 4, \"t_min\": -0.5"), "/render/t_min", "outside the allowed range", "^-0.5"},
+      {"RetiredTmin", with("\"max_depth\": 4", "\"max_depth\": 4, \"t_min\": 0.001"), "/render/t_min", "t_min is no longer a setting", "^0.001"},
       {"NegativeDensity", with_object(medium + R"("density": -1, "material": {"type": "isotropic", "albedo": [1, 1, 1]}})"), "/objects/1/density",
        "must be positive, found -1", R"("density": ^-1)"},
       {"NegativeColourComponent",

@@ -130,7 +130,7 @@ std::vector<Quad<double>> box_faces(const BoxSettings& box, const RigidTransform
       {Vec3d{b.x, a.y, a.z}, -dx, dy},  // -z
       {Vec3d{a.x, a.y, a.z}, dz, dy},   // -x
       {Vec3d{a.x, b.y, b.z}, dx, -dz},  // +y
-      {Vec3d{a.x, a.y, a.z}, dz, dx},   // -y
+      {Vec3d{a.x, a.y, a.z}, dx, dz},   // -y
   }};
   std::vector<Quad<double>> quads;
   for (const auto& f : faces)
@@ -430,7 +430,6 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   }
   CameraSettings camera = scene.camera;
   std::vector<Texture<double>> textures = scene.textures;
-  double t_min = settings.t_min;
   if (scale != 1) {
     for (Primitive<double>& p : primitives) p = scaled(p, scale);
     for (Primitive<double>& p : boundaries) p = scaled(p, scale);
@@ -439,11 +438,8 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     camera.look_at = camera.look_at * scale;
     camera.focus_distance *= scale;
     camera.aperture *= scale;
-    t_min *= scale;
     bounds = all_bounds();
   }
-  // A t_min that would round to zero would let rays hit the surface they leave: keep it at one step.
-  if constexpr (is_fixed_v<T>) t_min = std::max(t_min, static_cast<double>(ScalarTraits<T>::epsilon()));
   const BuiltBvh bvh = build_bvh(bounds);
 
   FlatScene<T> flat;
@@ -474,8 +470,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   make_perlin_tables(flat);
   flat.camera = make_camera<T>(camera, settings.width, settings.height);
   flat.background = Background<T>{to<T>(scene.background.horizon), to<T>(scene.background.zenith)};
-  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth,
-                                scalar<T>(t_min)};
+  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth};
   } catch (const DoesNotFit& e) {
     throw InputError(fmt::format("{}: value {:g} does not fit {} (largest {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                                  scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
@@ -505,7 +500,7 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
   bool found = false;
   for (u32 i = 0; i < scene.primitives.size(); ++i) {
     Hit<T> candidate;
-    if (intersect_primitive(scene.primitives[i], i, context, ray, scene.params.t_min, closest, candidate)) {
+    if (intersect_primitive(scene.primitives[i], i, context, ray, hit_distance_min<T>(), closest, candidate)) {
       closest = candidate.t;
       hit = candidate;
       hit.primitive = i;

@@ -312,7 +312,11 @@ struct ScalarTraits<Fixed<I, F>> {
     if constexpr (F >= 24) return T::from_raw(static_cast<Raw>(static_cast<i64>(bits24) << (F - 24)));
     else return T::from_raw(static_cast<Raw>(bits24 >> (24 - F)));
   }
-  PT_HD static constexpr T epsilon() { return T::from_raw(1); }
+  // Every operation rounds to within one step (products to half a step, quotients truncate), whatever the size of
+  // the values; but unit-size values (directions, normals) carry that step as a relative error into the lengths
+  // they multiply, so the bound has a relative part of one step per unit of magnitude as well.
+  PT_HD static constexpr T rounding_unit() { return T::from_raw(1); }
+  PT_HD static constexpr T rounding_step() { return T::from_raw(1); }
   // BVH slab distances as (bound - origin) * (1 / d). The float form bound * (1 / d) - origin * (1 / d) would
   // saturate both products for near-axis directions and subtract them to zero. Here an out-of-range distance
   // means "beyond anything in the scene", a correct answer rather than an overflow, so it clamps uncounted.

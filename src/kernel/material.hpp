@@ -25,6 +25,7 @@ struct SurfacePoint {
   T u, v;
   bool front_face;  // the ray came from the side the geometric normal points to
   u32 material;
+  Vec3<T> offset;  // along the geometric normal, just beyond the rounding error of p (see describe_hit)
 };
 
 template <class T>
@@ -32,6 +33,14 @@ struct Scatter {
   Color<T> attenuation;
   Ray<T> ray;
 };
+
+// A ray leaving a surface point: it starts at the point moved by its offset to the side the direction goes to, where
+// the surface it leaves can no longer be met again (robust ray spawning, see describe_hit). No minimum distance
+// is needed: every hit beyond zero counts.
+template <class T>
+PT_HD inline Ray<T> spawn_ray(const SurfacePoint<T>& at, const Vec3<T>& direction, T time) {
+  return Ray<T>{dot(direction, at.offset) < T(0) ? at.p - at.offset : at.p + at.offset, direction, time};
+}
 
 // Schlick's approximation of the Fresnel reflectance of a dielectric.
 template <class T>
@@ -68,7 +77,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       Vec3<T> direction = at.normal + random_direction();
       const T len2 = length_squared(direction);
       direction = len2 > constant<T>(1e-12) ? direction / sqrt(len2) : at.normal;
-      out = {albedo(m.texture), Ray<T>{at.p, direction, in.time}};
+      out = {albedo(m.texture), spawn_ray(at, direction, in.time)};
       return true;
     }
     PT_HD bool operator()(const Metal<T>& m) const {
@@ -76,7 +85,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       const T len2 = length_squared(direction);
       if (!(len2 > T(0))) return false;
       direction = direction / sqrt(len2);
-      out = {m.albedo, Ray<T>{at.p, direction, in.time}};
+      out = {m.albedo, spawn_ray(at, direction, in.time)};
       return dot(direction, at.normal) > T(0);
     }
     PT_HD bool operator()(const Dielectric<T>& m) const {
@@ -88,12 +97,12 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
         direction = reflect(in.direction, at.normal);
       else
         direction = refract(in.direction, at.normal, eta, cos_i);
-      out = {m.tint, Ray<T>{at.p, normalize(direction), in.time}};
+      out = {m.tint, spawn_ray(at, normalize(direction), in.time)};
       return true;
     }
     PT_HD bool operator()(const DiffuseLight<T>&) const { return false; }
     PT_HD bool operator()(const Isotropic<T>& m) const {
-      out = {albedo(m.texture), Ray<T>{at.p, random_direction(), in.time}};
+      out = {albedo(m.texture), spawn_ray(at, random_direction(), in.time)};
       return true;
     }
   };

@@ -31,8 +31,10 @@ struct ScalarTraits<float> {
   PT_HD static bool is_finite(float x) { return x >= -FLT_MAX && x <= FLT_MAX; }
   PT_HD static float largest() { return FLT_MAX; }
   PT_HD static float from_unit_bits(u32 bits24) { return static_cast<float>(bits24) * 0x1p-24f; }
-  // Relative size of the tolerance used where two surfaces meet (grazing tests, degenerate triangles).
-  PT_HD static float epsilon() { return 1e-8f; }
+  // The rounding error of one operation: relative (half an ulp, the unit roundoff) plus absolute (none for floating
+  // point). Error bounds of hit points are built from these (robust ray spawning, kernel/shapes.hpp).
+  PT_HD static float rounding_unit() { return 0x1p-24f; }
+  PT_HD static float rounding_step() { return 0.0f; }
   // cos and sin of a fraction of a full turn, 2 pi turns, for sampling directions. A quarter turn is taken off at a
   // time (exact in float) and the rest, within 1/8 turn, goes through short Taylor polynomials: within 2e-7 of
   // the library's, at a fraction of the cost of its call (sampling draws one angle per bounce).
@@ -85,7 +87,8 @@ struct ScalarTraits<double> {
   PT_HD static bool is_finite(double x) { return x >= -DBL_MAX && x <= DBL_MAX; }
   PT_HD static double largest() { return DBL_MAX; }
   PT_HD static double from_unit_bits(u32 bits24) { return static_cast<double>(bits24) * 0x1p-24; }
-  PT_HD static double epsilon() { return 1e-12; }
+  PT_HD static double rounding_unit() { return 0x1p-53; }
+  PT_HD static double rounding_step() { return 0.0; }
   PT_HD static void cos_sin_turns(double turns, double& c, double& s) {
     const double angle = 6.283185307179586477 * turns;
     c = ::cos(angle);
@@ -112,6 +115,11 @@ template <class T> PT_HD inline T max(T a, T b) { return ScalarTraits<T>::max(a,
 template <class T> PT_HD inline bool is_finite(T x) { return ScalarTraits<T>::is_finite(x); }
 template <class T> PT_HD inline T largest() { return ScalarTraits<T>::largest(); }
 template <class T> PT_HD inline T clamp(T x, T lo, T hi) { return min(max(x, lo), hi); }
+// A bound on the rounding error of `roundings` operations on values of size `magnitude`: relative for floating
+// point, absolute (a step each) for fixed point.
+template <class T> PT_HD inline T rounding_error(T magnitude, T roundings) {
+  return roundings * (ScalarTraits<T>::rounding_unit() * magnitude + ScalarTraits<T>::rounding_step());
+}
 
 // Constants are written in double and converted once, so that a scalar type only needs a conversion from double.
 template <class T> PT_HD constexpr T constant(double value) { return static_cast<T>(value); }

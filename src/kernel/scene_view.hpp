@@ -65,8 +65,12 @@ struct RenderParams {
   u32 max_depth;
   u32 seed;
   u32 roulette_depth;  // 0: no Russian roulette
-  T t_min;
 };
+
+// Closest-hit queries count every hit beyond zero: a ray that leaves a surface starts off it already (spawn_ray),
+// so no minimum distance is needed against self-intersection.
+template <class T>
+PT_HD constexpr T hit_distance_min() { return T(0); }
 
 template <class T>
 struct SceneView {
@@ -161,7 +165,7 @@ PT_HD inline bool intersect_leaf(const SceneView<T>& scene, const Ray<T>& ray, c
   bool found = false;
   for (u32 i = first; i < first + count; ++i) {
     Hit<T> candidate;
-    if (intersect_primitive(scene.primitives[i], i, context, ray, scene.params.t_min, closest, candidate)) {
+    if (intersect_primitive(scene.primitives[i], i, context, ray, hit_distance_min<T>(), closest, candidate)) {
       closest = candidate.t;
       hit = candidate;
       hit.primitive = i;
@@ -171,7 +175,7 @@ PT_HD inline bool intersect_leaf(const SceneView<T>& scene, const Ray<T>& ray, c
   return found;
 }
 
-// Closest hit along the ray beyond t_min over the binary tree, by iterative traversal with a fixed-size stack.
+// Closest hit along the ray (beyond zero) over the binary tree, by iterative traversal with a fixed-size stack.
 template <class T>
 PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
   const Vec3<T> inv = slab_reciprocals(ray);
@@ -187,7 +191,7 @@ PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ra
                           neg_x ? lo_x : hi_x,
                           neg_y ? lo_y : hi_y,
                           neg_z ? lo_z : hi_z};
-  const T t_min = scene.params.t_min;
+  const T t_min = hit_distance_min<T>();
   T closest = largest<T>();
   bool found = false;
   u32 stack[kBvhMaxDepth];
@@ -341,7 +345,7 @@ PT_HD inline bool intersect_wide_leaves(const SceneView<T>& scene, const Ray<T>&
   return found;
 }
 
-// Closest hit along the ray beyond t_min over the wide tree. Each node's boxes are tested together; leaves
+// Closest hit along the ray (beyond zero) over the wide tree. Each node's boxes are tested together; leaves
 // among the children are intersected at once (they narrow `closest` before anything is pushed), the inner children
 // that were entered in front of the closest hit are visited nearest first, the rest pushed. The leaf tests are a
 // branch of their own, away from the loop over inner children: the primitive tests need many registers, and with
@@ -353,7 +357,7 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
   // Plane rows of the bounds: the plane each axis meets first (lo for a positive direction), and last.
   const PlaneRows rows{inv.x < T(0) ? 3u : 0u, inv.y < T(0) ? 4u : 1u, inv.z < T(0) ? 5u : 2u,
                        inv.x < T(0) ? 0u : 3u, inv.y < T(0) ? 1u : 4u, inv.z < T(0) ? 2u : 5u};
-  const T t_min = scene.params.t_min;
+  const T t_min = hit_distance_min<T>();
   T closest = largest<T>();
   bool found = false;
   u32 stack[kBvhMaxDepth * (kWideBvhWidth - 1)];

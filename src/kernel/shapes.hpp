@@ -74,19 +74,29 @@ struct IntersectContext {
   u32 bounce;
 };
 
+// The two distances at which the ray's line crosses the sphere, nearest first; false where it misses. With a unit
+// direction the quadratic is t^2 + 2 b t + c; the discriminant is formed from the perpendicular distance to the
+// centre, which stays accurate for large spheres seen from close by.
 template <class T>
-PT_HD inline bool intersect_sphere(const Vec3<T>& center, T radius, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
-  // With a unit direction the quadratic is t^2 + 2 b t + c; the discriminant is formed from the perpendicular
-  // distance to the centre, which stays accurate for large spheres seen from close by.
+PT_HD inline bool sphere_roots(const Vec3<T>& center, T radius, const Ray<T>& ray, T& near, T& far) {
   const Vec3<T> oc = ray.origin - center;
   const T b = dot(oc, ray.direction);
   const Vec3<T> perpendicular = oc - b * ray.direction;
   const T discriminant = radius * radius - length_squared(perpendicular);
   if (discriminant < T(0)) return false;
   const T root = sqrt(discriminant);
-  T t = -b - root;
+  near = -b - root;
+  far = -b + root;
+  return true;
+}
+
+template <class T>
+PT_HD inline bool intersect_sphere(const Vec3<T>& center, T radius, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  T near, far;
+  if (!sphere_roots(center, radius, ray, near, far)) return false;
+  T t = near;
   if (!(t > t_min && t < t_max)) {
-    t = -b + root;
+    t = far;
     if (!(t > t_min && t < t_max)) return false;
   }
   hit.t = t;
@@ -156,27 +166,33 @@ PT_HD inline bool intersect_geometry(const Shape<T>& shape, const Ray<T>& ray, T
   return visit(Intersect{ray, t_min, t_max, hit}, shape);
 }
 
+// Widens [first, last] to take in every distance, anywhere along the ray's line, at which the line crosses one piece
+// of a medium's boundary (a sphere twice, a face once).
 template <class T>
-PT_HD inline bool intersect_boundary(const ConstantMedium<T>& medium, const Primitive<T>* boundaries, const Ray<T>& ray, T t_min,
-                                     T t_max, T& t) {
-  Hit<T> hit{};
-  bool found = false;
-  for (u32 i = 0; i < medium.boundary_count; ++i)
-    if (intersect_geometry(boundaries[medium.first_boundary + i].shape, ray, t_min, t_max, hit)) {
-      found = true;
-      t_max = hit.t;
+PT_HD inline void widen_to_crossings(const Shape<T>& piece, const Ray<T>& ray, T& first, T& last) {
+  if (const auto* s = std::get_if<Sphere<T>>(&piece)) {
+    T near, far;
+    if (sphere_roots(s->center, s->radius, ray, near, far)) {
+      first = min(first, near);
+      last = max(last, far);
     }
-  t = t_max;
-  return found;
+    return;
+  }
+  Hit<T> hit{};
+  if (intersect_geometry(piece, ray, -largest<T>(), largest<T>(), hit)) {
+    first = min(first, hit.t);
+    last = max(last, hit.t);
+  }
 }
 
-// A ray crossing a medium scatters inside it after an exponentially distributed free flight.
+// A ray crossing a medium scatters inside it after an exponentially distributed free flight. The boundary is convex,
+// so the line is inside it between its first and its last crossing (at an edge or a corner several faces give the
+// same distance): no tolerance separates the way in from the way out, whatever the scene's scale.
 template <class T>
 PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitive_index, const IntersectContext<T>& context,
                                    const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
-  T entry, exit;
-  if (!intersect_boundary(medium, context.boundaries, ray, -largest<T>(), largest<T>(), entry)) return false;
-  if (!intersect_boundary(medium, context.boundaries, ray, entry + constant<T>(1e-4), largest<T>(), exit)) return false;
+  T entry = largest<T>(), exit = -largest<T>();
+  for (u32 i = 0; i < medium.boundary_count; ++i) widen_to_crossings(context.boundaries[medium.first_boundary + i].shape, ray, entry, exit);
   entry = max(entry, t_min);
   exit = min(exit, t_max);
   if (!(entry < exit)) return false;
@@ -211,6 +227,22 @@ PT_HD inline void set_face_normal(SurfacePoint<T>& at, const Ray<T>& ray, const 
   at.normal = at.front_face ? outward : -outward;
 }
 
+// Robust ray spawning. A hit point computed in the scalar type lies off the exact surface by its rounding error, and
+// a ray leaving it may meet the same surface again a tiny distance away (self-intersection: missing light, worst at
+// grazing angles and far from the origin, where float's steps are coarse). Instead of ignoring hits closer than a
+// fixed distance, each shape bounds, component by component, the error of its hit point plus that of a new test of
+// the same surface from there, and describe_hit turns the bound into an offset along the geometric normal (pbrt's
+// approach); spawn_ray starts the next ray that far off the surface, on the side it goes to, where the surface can
+// no longer be met. The bounds are relative to the size of the coordinates involved (absolute, in steps, for fixed
+// point), so a scene renders the same picture at any scale and position. The longest chain of roundings in them is
+// the sphere test's discriminant, whose squared distances make about 18; kSpawnRoundings doubles that for margin.
+inline constexpr double kSpawnRoundings = 32;
+
+template <class T>
+PT_HD inline Vec3<T> spawn_offset(const Vec3<T>& unit_normal, const Vec3<T>& error) {
+  return dot(vabs(unit_normal), error) * unit_normal;
+}
+
 // Full description of the closest hit. With needs_uv false the texture coordinates of spheres are left at 0
 // (the material's textures do not read them); those of triangles and quads cost nothing and are always set.
 template <class T>
@@ -224,14 +256,30 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
     bool needs_uv;
 
     PT_HD void sphere(const Vec3<T>& center, T radius) const {
-      const Vec3<T> outward = (at.p - center) / radius;
+      // Re-projected onto the sphere, the point's error is that of the centre and the radius, however long the ray.
+      // A new test from there rounds the squared radius and distances: an error of the radius's size.
+      const Vec3<T> from_center = at.p - center;
+      const Vec3<T> outward = from_center / length(from_center);
+      at.p = center + radius * outward;
+      at.offset = spawn_offset(outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);
     }
     PT_HD void operator()(const Sphere<T>& s) const { sphere(s.center, s.radius); }
     PT_HD void operator()(const MovingSphere<T>& s) const { sphere(moving_sphere_center(s, ray.time), s.radius); }
     PT_HD void operator()(const Triangle<T>& tri) const {
-      const Vec3<T> geometric = normalize(cross(tri.edge1, tri.edge2));
+      const Vec3<T> area_normal = cross(tri.edge1, tri.edge2);
+      const T twice_area = length(area_normal);
+      const Vec3<T> geometric = area_normal / twice_area;
+      // From the barycentrics the point lies on the triangle's plane up to the rounding of the interpolation. A new
+      // test measures the distance to the plane through cross products of the edges, whose rounding, relative to
+      // that distance, grows as 1 / sin of the corner's angle, |e1| |e2| / |e1 x e2|.
+      const Vec3<T> along1 = hit.b1 * tri.edge1, along2 = hit.b2 * tri.edge2;
+      at.p = tri.p0 + along1 + along2;
+      const T skew = length(tri.edge1) * length(tri.edge2) / twice_area;
+      const T roundings = constant<T>(kSpawnRoundings);
+      at.offset = spawn_offset(geometric, rounding_error(vabs(tri.p0) + vabs(along1) + vabs(along2), roundings) +
+                                              rounding_error(vabs(tri.edge1) + vabs(tri.edge2), roundings * skew));
       at.front_face = dot(ray.direction, geometric) < T(0);
       const T b0 = T(1) - hit.b1 - hit.b2;
       Vec3<T> shading = geometric;
@@ -254,13 +302,19 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       at.normal = at.front_face ? shading : -shading;
     }
     PT_HD void operator()(const Quad<T>& q) const {
+      // Re-projected onto the quad's plane, the point's error no longer grows with the ray's length; a new test
+      // rounds the distance from the corner.
+      at.p = at.p - dot(q.normal, at.p - q.corner) * q.normal;
+      at.offset = spawn_offset(q.normal, rounding_error(vabs(at.p) + vabs(at.p - q.corner), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, q.normal);
       at.u = hit.b1;
       at.v = hit.b2;
     }
     PT_HD void operator()(const ConstantMedium<T>&) const {
-      // Scattering inside a medium has no surface: the phase function ignores normal and texture coordinates.
+      // Scattering inside a medium has no surface: the phase function ignores normal and texture coordinates, and
+      // the next ray starts at the point itself.
       at.normal = Vec3<T>{T(1), T(0), T(0)};
+      at.offset = Vec3<T>{};
       at.front_face = true;
       at.u = T(0);
       at.v = T(0);

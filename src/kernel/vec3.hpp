@@ -38,6 +38,11 @@ template <class T> PT_HD inline Vec3<T> lerp(const Vec3<T>& a, const Vec3<T>& b,
 template <class T> PT_HD inline Vec3<T> vmin(const Vec3<T>& a, const Vec3<T>& b) { return {min(a.x, b.x), min(a.y, b.y), min(a.z, b.z)}; }
 template <class T> PT_HD inline Vec3<T> vmax(const Vec3<T>& a, const Vec3<T>& b) { return {max(a.x, b.x), max(a.y, b.y), max(a.z, b.z)}; }
 template <class T> PT_HD inline T max_component(const Vec3<T>& a) { return max(a.x, max(a.y, a.z)); }
+template <class T> PT_HD inline Vec3<T> vabs(const Vec3<T>& a) { return {abs(a.x), abs(a.y), abs(a.z)}; }
+// rounding_error component by component.
+template <class T> PT_HD inline Vec3<T> rounding_error(const Vec3<T>& magnitude, T roundings) {
+  return {rounding_error(magnitude.x, roundings), rounding_error(magnitude.y, roundings), rounding_error(magnitude.z, roundings)};
+}
 template <class T> PT_HD inline bool is_finite(const Vec3<T>& a) { return is_finite(a.x) && is_finite(a.y) && is_finite(a.z); }
 
 // Mirror direction d about the unit normal n.

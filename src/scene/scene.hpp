@@ -29,7 +29,6 @@ struct RenderSettings {
   u32 max_depth = 50;
   u32 seed = 1;
   u32 roulette_depth = 0;
-  double t_min = 0.001;
 };
 
 struct CameraSettings {

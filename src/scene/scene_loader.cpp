@@ -208,7 +208,11 @@ class SceneReader {
     if (n.has("max_depth")) r.max_depth = n.child("max_depth").integer(1, kMaxDepth);
     if (n.has("seed")) r.seed = n.child("seed").integer(0, 0xffffffffu);
     if (n.has("russian_roulette_depth")) r.roulette_depth = n.child("russian_roulette_depth").integer(0, kMaxDepth);
-    if (n.has("t_min")) r.t_min = n.child("t_min").number_in(0, 1e3);
+    // t_min once kept rays from hitting the surface they leave; its fixed distance was wrong at most scales. Rays
+    // now start off the surface by the hit point's own rounding error bound (kernel/shapes.hpp, describe_hit).
+    if (n.has("t_min"))
+      n.child("t_min").fail("t_min is no longer a setting: rays leave surfaces from an offset derived from the rounding error of the "
+                            "hit point, at every scale and in every number format; remove it (see docs/scene-format.md)");
   }
 
   void read_camera(const Node& n) {

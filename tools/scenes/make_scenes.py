@@ -191,7 +191,7 @@ def seed_default(small_spheres):
     ]
     assert len(objects) == 496
     return {
-        "render": {"width": 800, "height": 480, "samples_per_pixel": 100, "max_depth": 50, "t_min": 0.001},
+        "render": {"width": 800, "height": 480, "samples_per_pixel": 100, "max_depth": 50},
         "camera": {"look_from": [13, 3, 3], "look_at": [0, -1, 0], "up": [0, 1, 0], "vertical_fov": 40,
                    "aperture": 0.04, "focus_distance": math.sqrt(194), "shutter": [0, 1]},
         "background": SKY,
