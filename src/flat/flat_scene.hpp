@@ -70,7 +70,8 @@ static_assert(sizeof(BvhNode<float>) == 32, "a BVH node fills one 32-byte sector
 // length multiplied by `scale`; scale 0 picks it: 1 for float and double, for a fixed-point format the largest
 // power of two (at most 1) that brings every coordinate within half the square root of the format's range, so
 // squared distances fit. Throws InputError when the scene cannot be represented (for instance, too many
-// primitives, or a value that does not fit a fixed-point format after scaling).
+// primitives, or a value beyond the type's supported range: docs/scene-format.md, "Supported range of values"),
+// naming the file, line:column and JSON path of the value.
 template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale = 0);
 

@@ -12,17 +12,125 @@
 #include "flat/bvh_builder.hpp"
 #include "flat/number_formats.hpp"
 #include "image/image_io.hpp"
+#include "scene/scene_loader.hpp"
 
 namespace pt {
 
 namespace {
 
-// A value a fixed-point format cannot hold; flatten_scene turns it into an InputError naming the scene.
+// ---- Supported ranges ----
+//
+// Every value the kernels get passes through Fit below, which refuses, with one InputError naming the file, line,
+// column and JSON path where it was written, a value the scalar type cannot hold or that the kernels' arithmetic
+// would overflow. What a value is decides its range:
+enum class Quantity {
+  kLength,         // coordinates and lengths: positions, radii, edges, velocities, 1 / density, the camera's
+  kTriangleEdge,   // a triangle's edges, a length raised to the fourth power (see below)
+  kInverseLength,  // per unit length: a quad's dual edges, checker frequencies, noise scales
+  kColour,         // colours and emission (radiance)
+  kPlain,          // without unit: times, indices of refraction, fuzz, texture coordinates and repeats
+};
+
+// Float and double. The scene being finite (the parser refuses the rest) is not enough: the kernels raise lengths to
+// powers and multiply radiance along a path, and a result past the largest value (below 2^E: 2^128 for float,
+// 2^1024 for double) becomes infinite, so the object silently vanishes or every sample is dropped as non-finite.
+// With every stored length and coordinate at most L, every point the kernels compute lies within a few L (a quad's
+// far corner, corner + u + v, within 3 L; a ray's origin, a hit point or look_from plus the lens, as much), and:
+//   - the BVH slab test, bound * (1 / d) - origin * (1 / d), where slab_reciprocal lets 1 / d reach 1e20 (2^66.5),
+//     forms products up to 3 L 2^66.5 and their difference, up to 6 L 2^66.5;
+//   - the sphere test, radius * radius - length_squared(perpendicular), squares distances of up to 4 L per axis:
+//     up to 48 L^2.
+// L = 2^(E/2 - 8) keeps all of these at least 7 times below the largest value: float 2^56 (about 7.2e16), double
+// 2^504 (about 5.2e151).
+// Triangles go further. Their normal normalises cross(edge1, edge2), whose squared length is a fourth power of the
+// edges, up to 12 T^4 for edges at most T; their distance, dot(edge2, cross(origin - p0, edge1)), reaches 24 L T^2.
+// T = 2^(E/4 - 2) keeps 12 T^4 a factor 21 below the largest value, and 24 L T^2 a factor 2^7: float 2^30 (about
+// 1.07e9), double 2^254.
+// A sample's radiance is a sum over up to kMaxDepth = 10000 (< 2^14) bounces of an emission times the throughput,
+// a product of the colours met; with emission and throughput at most R, R^2 2^14 must stay below 2^E:
+// R = 2^floor((E - 15) / 2), float 2^56, double 2^504. (Colours are albedos, at most 1 in a physical scene, so the
+// throughput of a long path stays within R.)
+// Other values need only fit the type. Fixed point saturates instead of overflowing, and flatten_scene scales lengths
+// by a power of two so that squared distances fit; there every value, after that scaling, must fit the format.
+template <class T>
+double supported_limit(Quantity q) {
+  if constexpr (is_fixed_v<T>) {
+    return static_cast<double>(largest<T>());
+  } else {
+    constexpr int exponent = std::numeric_limits<T>::max_exponent;  // E: the largest value lies below 2^E
+    if (q == Quantity::kLength) return std::ldexp(1.0, exponent / 2 - 8);
+    if (q == Quantity::kTriangleEdge) return std::ldexp(1.0, exponent / 4 - 2);
+    if (q == Quantity::kColour) return std::ldexp(1.0, (exponent - 15) / 2);
+    return static_cast<double>(largest<T>());
+  }
+}
+
+const char* quantity_name(Quantity q) {
+  switch (q) {
+    case Quantity::kLength: return "lengths and coordinates";
+    case Quantity::kTriangleEdge: return "triangle edges";
+    case Quantity::kColour: return "colours and emission";
+    default: return "values";
+  }
+}
+
+// Where a pointer's components are: "/center" -> "/center/0".
+std::string component(const std::string& pointer, int i) { return pointer + "/" + std::to_string(i); }
+
+// Conversion to the kernels' scalar type, refusing what does not fit (see supported_limit). Lengths arrive already
+// multiplied by the scene's scale; messages show them as written, and the scaled value.
+template <class T>
+class Fit {
+ public:
+  Fit(const SceneDescription& scene, double scale) : scene_(scene), scale_(scale) {}
+
+  // `pointer`: the JSON path where the value was written; `note`: what the value is, where it is not that written
+  // value itself (a position after a transform, 1 / density, ...).
+  T operator()(double value, Quantity q, const std::string& pointer, const std::string& note = "") const {
+    if (!(std::abs(value) <= supported_limit<T>(q))) refuse(value, q, pointer, note);
+    return static_cast<T>(value);
+  }
+  // A vector: as written (no note), each component is named by its own path, /0, /1 or /2.
+  Vec3<T> operator()(const Vec3d& v, Quantity q, const std::string& pointer, const std::string& note = "") const {
+    auto one = [&](double x, int i) { return (*this)(x, q, note.empty() ? component(pointer, i) : pointer, note); };
+    return {one(v.x, 0), one(v.y, 1), one(v.z, 2)};
+  }
+
+  // A texture's or a material's JSON path, or a description where the scene was made in code.
+  std::string texture(u32 i) const { return i < scene_.written.textures.size() ? scene_.written.textures[i] : fmt::format("(texture {})", i); }
+  std::string material(u32 i) const { return i < scene_.written.materials.size() ? scene_.written.materials[i] : fmt::format("(material {})", i); }
+  double scale() const { return scale_; }
+
+ private:
+  [[noreturn]] void refuse(double value, Quantity q, const std::string& pointer, const std::string& note) const {
+    const std::string type = number_format_name<T>();
+    const double limit = supported_limit<T>(q);
+    const std::string what = note.empty() ? "" : " (" + note + ")";
+    const bool length = q == Quantity::kLength || q == Quantity::kTriangleEdge;
+    const bool scaled = scale_ != 1 && (length || q == Quantity::kInverseLength);
+    const double written = !scaled ? value : length ? value / scale_ : value * scale_;
+    const std::string after = scaled ? fmt::format(", {:g} after scaling lengths by {:g},", value, scale_) : "";
+    std::string reason;
+    if constexpr (is_fixed_v<T>)
+      reason = fmt::format("{:g}{}{} does not fit {} (|x| <= {:g}; see docs/numerics.md)", written, what, after, type, limit);
+    else if (q != Quantity::kInverseLength && q != Quantity::kPlain)
+      reason = fmt::format("{:g}{}{} is beyond {}'s supported range for {} (|x| <= {:.3g}; see docs/scene-format.md)", written, what, after, type,
+                           quantity_name(q), limit);
+    else
+      reason = fmt::format("{:g}{}{} is beyond {}'s range (|x| <= {:.3g})", written, what, after, type, limit);
+    throw InputError(fmt::format("{}: {}: {}", source_position(scene_, pointer), pointer, reason));
+  }
+
+  const SceneDescription& scene_;
+  double scale_;
+};
+
+// A value of the BVH or of a fixed table: derived from values Fit has passed (bounds within a few L, unit vectors),
+// so it fits; should it not, flatten_scene turns this into an InputError naming the scene.
 struct DoesNotFit {
   double value;
 };
 
-// Conversion to the kernels' scalar type that refuses, rather than saturates, a value out of a fixed format's range.
 template <class T>
 T scalar(double v) {
   if constexpr (is_fixed_v<T>) {
@@ -34,51 +142,126 @@ T scalar(double v) {
 template <class T> Vec3<T> to(const Vec3d& v) { return {scalar<T>(v.x), scalar<T>(v.y), scalar<T>(v.z)}; }
 
 template <class T>
-Texture<T> to(const Texture<double>& texture) {
+Texture<T> fit_texture(const Fit<T>& fit, const Texture<double>& texture, const std::string& at) {
   struct Convert {
-    Texture<T> operator()(const SolidTexture<double>& t) const { return SolidTexture<T>{to<T>(t.color)}; }
+    const Fit<T>& fit;
+    const std::string& at;  // a solid texture's colour array, or the texture object
+    Texture<T> operator()(const SolidTexture<double>& t) const { return SolidTexture<T>{fit(t.color, Quantity::kColour, at)}; }
     Texture<T> operator()(const CheckerTexture<double>& t) const {
-      return CheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.cells_per_unit)};
+      return CheckerTexture<T>{fit(t.odd, Quantity::kColour, at + "/odd"), fit(t.even, Quantity::kColour, at + "/even"),
+                               fit(t.cells_per_unit, Quantity::kInverseLength, at + "/frequency", "cells per unit length, frequency / pi")};
     }
     Texture<T> operator()(const UvCheckerTexture<double>& t) const {
-      return UvCheckerTexture<T>{to<T>(t.odd), to<T>(t.even), scalar<T>(t.columns), scalar<T>(t.rows)};
+      return UvCheckerTexture<T>{fit(t.odd, Quantity::kColour, at + "/odd"), fit(t.even, Quantity::kColour, at + "/even"),
+                                 fit(t.columns, Quantity::kPlain, at + "/columns"), fit(t.rows, Quantity::kPlain, at + "/rows")};
     }
     Texture<T> operator()(const ImageTexture<double>& t) const {
-      return ImageTexture<T>{t.width, t.height, t.offset, scalar<T>(t.repeat)};
+      return ImageTexture<T>{t.width, t.height, t.offset, fit(t.repeat, Quantity::kPlain, at + "/repeat")};
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
-      return NoiseTexture<T>{scalar<T>(t.scale), t.kind, t.turbulence_depth};
+      return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth};
     }
   };
-  return visit(Convert{}, texture);
+  return visit(Convert{fit, at}, texture);
 }
 
 template <class T>
-Material<T> to(const Material<double>& material) {
+Material<T> fit_material(const Fit<T>& fit, const Material<double>& material, const std::string& at) {
   struct Convert {
+    const Fit<T>& fit;
+    const std::string& at;
     Material<T> operator()(const Lambertian<double>& m) const { return Lambertian<T>{m.texture}; }
-    Material<T> operator()(const Metal<double>& m) const { return Metal<T>{to<T>(m.albedo), scalar<T>(m.fuzz)}; }
-    Material<T> operator()(const Dielectric<double>& m) const { return Dielectric<T>{scalar<T>(m.ior), to<T>(m.tint)}; }
+    Material<T> operator()(const Metal<double>& m) const {
+      return Metal<T>{fit(m.albedo, Quantity::kColour, at + "/albedo"), fit(m.fuzz, Quantity::kPlain, at + "/fuzz")};
+    }
+    Material<T> operator()(const Dielectric<double>& m) const {
+      return Dielectric<T>{fit(m.ior, Quantity::kPlain, at + "/ior"), fit(m.tint, Quantity::kColour, at + "/tint")};
+    }
     Material<T> operator()(const DiffuseLight<double>& m) const { return DiffuseLight<T>{m.texture}; }
     Material<T> operator()(const Isotropic<double>& m) const { return Isotropic<T>{m.texture}; }
   };
-  return visit(Convert{}, material);
+  return visit(Convert{fit, at}, material);
 }
 
+// Where a primitive was written: the JSON path of its object, or of a medium's boundary.
+struct PrimitiveOrigin {
+  std::string pointer;
+  bool moved = false;                 // a transform moved it: its positions are not the ones written
+  const BoxSettings* box = nullptr;  // for one of the six faces of a box: the box, as written
+};
+
+bool is_identity(const RigidTransform& xf) {
+  const RigidTransform identity;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (xf.rotation[i][j] != identity.rotation[i][j]) return false;
+  return xf.translation.x == 0 && xf.translation.y == 0 && xf.translation.z == 0;
+}
+
+// The primitive in the kernels' type. Besides what is stored, the points and edges the kernels derive from it are
+// checked as lengths: a quad's edges u and v, a triangle's other vertices, a moving sphere's centre over the shutter
+// interval [open, close].
 template <class T>
-Primitive<T> to(const Primitive<double>& primitive) {
+Primitive<T> fit_primitive(const Fit<T>& fit, const Primitive<double>& primitive, const PrimitiveOrigin& origin, double open, double close) {
   struct Convert {
-    Shape<T> operator()(const Sphere<double>& s) const { return Sphere<T>{to<T>(s.center), scalar<T>(s.radius)}; }
-    Shape<T> operator()(const MovingSphere<double>& s) const {
-      return MovingSphere<T>{to<T>(s.center0), scalar<T>(s.radius), to<T>(s.velocity), scalar<T>(s.time0)};
+    const Fit<T>& fit;
+    const PrimitiveOrigin& origin;
+    double open, close;
+
+    std::string key(const char* name) const { return origin.pointer + name; }
+    // A position as written, or after the object's transform.
+    Vec3<T> position(const Vec3d& p, const char* name) const {
+      return fit(p, Quantity::kLength, key(name), origin.moved ? "after the object's transform" : "");
     }
-    Shape<T> operator()(const Triangle<double>& t) const { return Triangle<T>{to<T>(t.p0), to<T>(t.edge1), to<T>(t.edge2), t.attributes}; }
-    Shape<T> operator()(const Quad<double>& q) const { return Quad<T>{to<T>(q.corner), to<T>(q.normal), to<T>(q.du), to<T>(q.dv)}; }
+    Shape<T> operator()(const Sphere<double>& s) const {
+      return Sphere<T>{position(s.center, "/center"), fit(s.radius, Quantity::kLength, key("/radius"))};
+    }
+    Shape<T> operator()(const MovingSphere<double>& s) const {
+      const MovingSphere<T> out{position(s.center0, "/center0"), fit(s.radius, Quantity::kLength, key("/radius")),
+                                fit(s.velocity, Quantity::kLength, key("/center1"), "the velocity, (center1 - center0) / (time1 - time0)"),
+                                fit(s.time0, Quantity::kPlain, key("/time0"))};
+      for (const double time : {open, close})
+        fit(moving_sphere_center(s, time), Quantity::kLength, key("/center1"), fmt::format("the centre at the shutter's time {:g}", time));
+      return out;
+    }
+    Shape<T> operator()(const Triangle<double>& t) const {
+      position(t.p0 + t.edge1, "/vertices/1");
+      position(t.p0 + t.edge2, "/vertices/2");
+      const Triangle<T> out{position(t.p0, "/vertices/0"), fit(t.edge1, Quantity::kTriangleEdge, key("/vertices/1"), "the edge from vertex 0"),
+                            fit(t.edge2, Quantity::kTriangleEdge, key("/vertices/2"), "the edge from vertex 0"), t.attributes};
+      return out;
+    }
+    Shape<T> operator()(const Quad<double>& q) const {
+      Vec3d u, v;
+      quad_edges(q, u, v);
+      if (origin.box) {
+        if (!origin.moved) {  // name the values as written, where they are the ones the faces are made of
+          fit(origin.box->min * fit.scale(), Quantity::kLength, key("/min"));
+          fit(origin.box->max * fit.scale(), Quantity::kLength, key("/max"));
+        }
+        const std::string where = origin.moved ? ", after the object's transform" : "";
+        const Quad<T> out{fit(q.corner, Quantity::kLength, origin.pointer, "a corner of the box" + where), fit(q.normal, Quantity::kPlain, origin.pointer, "a face's normal"),
+                          fit(q.du, Quantity::kInverseLength, origin.pointer, "1 / an edge's length, as a face stores it"),
+                          fit(q.dv, Quantity::kInverseLength, origin.pointer, "1 / an edge's length, as a face stores it")};
+        fit(u, Quantity::kLength, origin.pointer, "an edge of the box, max - min" + where);
+        fit(v, Quantity::kLength, origin.pointer, "an edge of the box, max - min" + where);
+        fit(q.corner + u + v, Quantity::kLength, origin.pointer, "a corner of the box" + where);
+        return out;
+      }
+      const std::string turned = origin.moved ? "after the object's transform" : "";
+      const Quad<T> out{position(q.corner, "/corner"), fit(q.normal, Quantity::kPlain, origin.pointer, "the normal"),
+                        fit(q.du, Quantity::kInverseLength, key("/u"), "1 / the length of u, as the quad stores it"),
+                        fit(q.dv, Quantity::kInverseLength, key("/v"), "1 / the length of v, as the quad stores it")};
+      fit(u, Quantity::kLength, key("/u"), turned);
+      fit(v, Quantity::kLength, key("/v"), turned);
+      return out;
+    }
     Shape<T> operator()(const ConstantMedium<double>& m) const {
-      return ConstantMedium<T>{m.first_boundary, m.boundary_count, scalar<T>(m.neg_inv_density)};
+      fit(-m.neg_inv_density, Quantity::kLength, key("/density"), "1 / density, the mean free path");
+      return ConstantMedium<T>{m.first_boundary, m.boundary_count, static_cast<T>(m.neg_inv_density)};
     }
   };
-  return Primitive<T>{visit(Convert{}, primitive.shape), primitive.material};
+  return Primitive<T>{visit(Convert{fit, origin, open, close}, primitive.shape), primitive.material};
 }
 
 // The primitive with every length multiplied by s; 1 / density is a length, a quad's dual edges are per length.
@@ -333,6 +516,25 @@ Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
                    scalar<T>(c.shutter_close - c.shutter_open)};
 }
 
+// The camera in the kernels' type, its settings checked first (they are lengths even where not stored as such).
+template <class T>
+Camera<T> fit_camera(const Fit<T>& fit, const CameraSettings& c, u32 width, u32 height) {
+  fit(c.look_from, Quantity::kLength, "/camera/look_from");
+  fit(c.look_at, Quantity::kLength, "/camera/look_at");
+  fit(c.focus_distance, Quantity::kLength, "/camera", "the focus distance, focus_distance or |look_at - look_from|");
+  fit(c.aperture, Quantity::kLength, "/camera/aperture");
+  const Camera<double> d = make_camera<double>(c, width, height);
+  const std::string plane = " of the image on the focus plane (from vertical_fov, the image's shape and the focus distance)";
+  return Camera<T>{fit(d.origin, Quantity::kLength, "/camera/look_from"),
+                   fit(d.lower_left, Quantity::kLength, "/camera", "the lower-left corner" + plane),
+                   fit(d.horizontal, Quantity::kLength, "/camera", "the width" + plane),
+                   fit(d.vertical, Quantity::kLength, "/camera", "the height" + plane),
+                   fit(d.lens_u, Quantity::kLength, "/camera/aperture", "the lens radius"),
+                   fit(d.lens_v, Quantity::kLength, "/camera/aperture", "the lens radius"),
+                   fit(d.time0, Quantity::kPlain, "/camera/shutter/0"),
+                   fit(d.time_span, Quantity::kPlain, "/camera/shutter", "the time the shutter is open")};
+}
+
 // Perlin tables from a fixed hash, identical on every platform and compiler.
 template <class T>
 void make_perlin_tables(FlatScene<T>& flat) {
@@ -358,8 +560,13 @@ template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale) {
   std::vector<Primitive<double>> primitives, boundaries;
   std::vector<TriangleAttributes<double>> attributes;
-  for (const SceneObject& object : scene.objects) {
+  // Where each primitive, boundary and triangle attribute was written, for messages.
+  std::vector<PrimitiveOrigin> origins, boundary_origins;
+  std::vector<std::string> attribute_objects;
+  for (std::size_t index = 0; index < scene.objects.size(); ++index) {
+    const SceneObject& object = scene.objects[index];
     const RigidTransform& xf = object.transform;
+    const std::string pointer = "/objects/" + std::to_string(index);
     if (const auto* s = std::get_if<Sphere<double>>(&object.shape)) {
       primitives.push_back({Sphere<double>{xf.apply_point(s->center), s->radius}, object.material});
     } else if (const auto* s = std::get_if<MovingSphereSettings>(&object.shape)) {
@@ -383,6 +590,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
         }
         attribute_index = static_cast<i32>(attributes.size());
         attributes.push_back(a);
+        attribute_objects.push_back(pointer);
       }
       primitives.push_back({Triangle<double>{p0, p1 - p0, p2 - p0, attribute_index}, object.material});
     } else if (const auto* q = std::get_if<QuadSettings>(&object.shape)) {
@@ -397,7 +605,10 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       else
         for (const Quad<double>& face : box_faces(std::get<BoxSettings>(m->boundary), boundary_xf)) boundaries.push_back({face, object.material});
       primitives.push_back({ConstantMedium<double>{first, static_cast<u32>(boundaries.size()) - first, -1.0 / m->density}, object.material});
+      const BoxSettings* box = std::get_if<BoxSettings>(&m->boundary);
+      boundary_origins.resize(boundaries.size(), PrimitiveOrigin{pointer + "/boundary", !is_identity(boundary_xf), box});
     }
+    origins.resize(primitives.size(), PrimitiveOrigin{pointer, !is_identity(xf), std::get_if<BoxSettings>(&object.shape)});
   }
   // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
   if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
@@ -425,7 +636,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     if constexpr (is_fixed_v<T>) {
       const double extent = scene_extent(bounds, make_camera<double>(scene.camera, settings.width, settings.height));
       const double fit = std::sqrt(static_cast<double>(largest<T>())) / 2;
-      if (extent > fit) scale = std::exp2(std::floor(std::log2(fit / extent)));
+      if (extent > fit && std::isfinite(extent)) scale = std::exp2(std::floor(std::log2(fit / extent)));
     }
   }
   CameraSettings camera = scene.camera;
@@ -440,41 +651,51 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     camera.aperture *= scale;
     bounds = all_bounds();
   }
-  const BuiltBvh bvh = build_bvh(bounds);
 
+  // Every value of the scene the kernels get, through Fit, which refuses one out of range naming where it was written
+  // (in the file's order: camera, background, textures, materials, objects). Before the BVH, which needs finite bounds.
+  const Fit<T> fit(scene, scale);
   FlatScene<T> flat;
   flat.scale = scale;
-  try {
-  flat.bvh_depth = bvh.depth;
-  flat.nodes.reserve(bvh.nodes.size());
-  for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
-  flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
-  flat.primitives.reserve(primitives.size());
-  for (u32 index : bvh.order) flat.primitives.push_back(to<T>(primitives[index]));
-  for (const Primitive<double>& p : boundaries) flat.boundaries.push_back(to<T>(p));
-  for (const TriangleAttributes<double>& a : attributes) {
+  flat.camera = fit_camera(fit, camera, settings.width, settings.height);
+  flat.background = Background<T>{fit(scene.background.horizon, Quantity::kColour, scene.written.horizon),
+                                  fit(scene.background.zenith, Quantity::kColour, scene.written.zenith)};
+  for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
+  for (u32 i = 0; i < scene.materials.size(); ++i) flat.materials.push_back(fit_material(fit, scene.materials[i], fit.material(i)));
+  std::vector<Primitive<T>> converted;
+  converted.reserve(primitives.size());
+  for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, primitives[i], origins[i], open, close));
+  for (std::size_t i = 0; i < boundaries.size(); ++i) flat.boundaries.push_back(fit_primitive(fit, boundaries[i], boundary_origins[i], open, close));
+  for (std::size_t k = 0; k < attributes.size(); ++k) {
+    const TriangleAttributes<double>& a = attributes[k];
     TriangleAttributes<T> out{};
     for (int i = 0; i < 3; ++i) {
-      out.normal[i] = to<T>(a.normal[i]);
-      out.u[i] = scalar<T>(a.u[i]);
-      out.v[i] = scalar<T>(a.v[i]);
+      const std::string uv = attribute_objects[k] + "/uvs/" + std::to_string(i);
+      out.normal[i] = fit(a.normal[i], Quantity::kPlain, attribute_objects[k] + "/normals/" + std::to_string(i), "normalised");
+      out.u[i] = fit(a.u[i], Quantity::kPlain, uv + "/0");
+      out.v[i] = fit(a.v[i], Quantity::kPlain, uv + "/1");
     }
     out.has_normals = a.has_normals;
     out.has_uvs = a.has_uvs;
     flat.triangle_attributes.push_back(out);
   }
-  for (const Material<double>& m : scene.materials) flat.materials.push_back(to<T>(m));
-  for (const Texture<double>& t : textures) flat.textures.push_back(to<T>(t));
-  flat.texels = scene.texels;
-  flat.srgb_decode = srgb_decode_table();
+
+  const BuiltBvh bvh = build_bvh(bounds);
+  try {
+  flat.bvh_depth = bvh.depth;
+  flat.nodes.reserve(bvh.nodes.size());
+  for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
+  flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
   make_perlin_tables(flat);
-  flat.camera = make_camera<T>(camera, settings.width, settings.height);
-  flat.background = Background<T>{to<T>(scene.background.horizon), to<T>(scene.background.zenith)};
-  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth};
   } catch (const DoesNotFit& e) {
-    throw InputError(fmt::format("{}: value {:g} does not fit {} (largest {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
+    throw InputError(fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                                  scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
   }
+  flat.primitives.reserve(primitives.size());
+  for (u32 index : bvh.order) flat.primitives.push_back(converted[index]);
+  flat.texels = scene.texels;
+  flat.srgb_decode = srgb_decode_table();
+  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth};
   flat.samples_per_pixel = settings.samples_per_pixel;
   return flat;
 }

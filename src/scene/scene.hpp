@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -86,8 +87,20 @@ struct SceneObject {
   u32 material = 0;
 };
 
+// Where the parts of a parsed scene were written, so that checks made after parsing (flatten_scene) can name a value
+// as the parser does, FILE:LINE:COLUMN: /json/path (source_position in scene/scene_loader.hpp). Object i is
+// always "/objects/i" and the camera "/camera"; textures and materials, written inline or under a name, are
+// listed here. Empty for scenes made in code.
+struct SceneSourceMap {
+  std::shared_ptr<const std::string> text;  // the scene file's text, where lines and columns are looked up
+  std::vector<std::string> textures;        // per texture its JSON path; for a solid texture, that of its colour array
+  std::vector<std::string> materials;       // per material its JSON path (under /materials, or inline in an object)
+  std::string horizon = "/background/horizon", zenith = "/background/zenith";  // the background's two colours
+};
+
 struct SceneDescription {
   std::string source;  // the file it came from, for messages
+  SceneSourceMap written;  // where its parts were written in that file
   RenderSettings render;
   CameraSettings camera;
   Background<double> background{{1, 1, 1}, {0.5, 0.7, 1.0}};

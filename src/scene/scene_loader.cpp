@@ -247,13 +247,16 @@ class SceneReader {
       n.allow_keys({"type", "color"});
       const Vec3d c = n.at("color").color();
       scene_.background = {c, c};
+      scene_.written.horizon = scene_.written.zenith = n.child("color").pointer();
     } else {
       n.child("type").fail(fmt::format("unknown background type '{}' (expected 'sky' or 'constant')", type));
     }
   }
 
-  u32 add_texture(const Texture<double>& t) {
+  // `pointer`: where it was written; for a solid texture, its colour array.
+  u32 add_texture(const Texture<double>& t, const std::string& pointer) {
     scene_.textures.push_back(t);
+    scene_.written.textures.push_back(pointer);
     return static_cast<u32>(scene_.textures.size() - 1);
   }
 
@@ -261,18 +264,19 @@ class SceneReader {
     const std::string type = n.at("type").string();
     if (type == "solid") {
       n.allow_keys({"type", "color"});
-      return add_texture(SolidTexture<double>{n.at("color").color()});
+      const Node color = n.at("color");
+      return add_texture(SolidTexture<double>{color.color()}, color.pointer());
     }
     if (type == "checker") {
       n.allow_keys({"type", "odd", "even", "frequency"});
       const double f = n.has("frequency") ? n.child("frequency").positive() : 10.0;
-      return add_texture(CheckerTexture<double>{n.at("odd").color(), n.at("even").color(), f / 3.14159265358979323846});
+      return add_texture(CheckerTexture<double>{n.at("odd").color(), n.at("even").color(), f / 3.14159265358979323846}, n.pointer());
     }
     if (type == "uv_checker") {
       n.allow_keys({"type", "odd", "even", "columns", "rows"});
       const double columns = n.has("columns") ? n.child("columns").integer(1, 1u << 20) : 8;
       const double rows = n.has("rows") ? n.child("rows").integer(1, 1u << 20) : 8;
-      return add_texture(UvCheckerTexture<double>{n.at("odd").color(), n.at("even").color(), columns, rows});
+      return add_texture(UvCheckerTexture<double>{n.at("odd").color(), n.at("even").color(), columns, rows}, n.pointer());
     }
     if (type == "image") {
       n.allow_keys({"type", "file", "repeat"});
@@ -281,7 +285,7 @@ class SceneReader {
       if (name.empty()) file.fail("the image file name is empty");
       const double repeat = n.has("repeat") ? n.child("repeat").positive() : 1.0;
       const ImageRef image = load_image(file, name);
-      return add_texture(ImageTexture<double>{image.width, image.height, image.offset, repeat});
+      return add_texture(ImageTexture<double>{image.width, image.height, image.offset, repeat}, n.pointer());
     }
     if (type == "noise") {
       n.allow_keys({"type", "kind", "scale", "turbulence_depth"});
@@ -295,7 +299,7 @@ class SceneReader {
       }
       const double scale = n.has("scale") ? n.child("scale").positive() : 1.0;
       const u32 depth = n.has("turbulence_depth") ? n.child("turbulence_depth").integer(1, 16) : 7;
-      return add_texture(NoiseTexture<double>{scale, kind, depth});
+      return add_texture(NoiseTexture<double>{scale, kind, depth}, n.pointer());
     }
     n.child("type").fail(fmt::format("unknown texture type '{}' (expected solid, checker, uv_checker, image or noise)", type));
   }
@@ -336,11 +340,13 @@ class SceneReader {
   u32 read_colour_or_texture(const Node& n, const char* color_key) {
     if (n.has(color_key) && n.has("texture")) n.fail(fmt::format("give either '{}' or 'texture', not both", color_key));
     if (n.has("texture")) return read_texture_reference(n.child("texture"));
-    return add_texture(SolidTexture<double>{n.at(color_key).color()});
+    const Node color = n.at(color_key);
+    return add_texture(SolidTexture<double>{color.color()}, color.pointer());
   }
 
-  u32 add_material(const Material<double>& m) {
+  u32 add_material(const Material<double>& m, const std::string& pointer) {
     scene_.materials.push_back(m);
+    scene_.written.materials.push_back(pointer);
     return static_cast<u32>(scene_.materials.size() - 1);
   }
 
@@ -348,26 +354,26 @@ class SceneReader {
     const std::string type = n.at("type").string();
     if (type == "lambertian") {
       n.allow_keys({"type", "albedo", "texture"});
-      return add_material(Lambertian<double>{read_colour_or_texture(n, "albedo")});
+      return add_material(Lambertian<double>{read_colour_or_texture(n, "albedo")}, n.pointer());
     }
     if (type == "metal") {
       n.allow_keys({"type", "albedo", "fuzz"});
       const double fuzz = n.has("fuzz") ? n.child("fuzz").number_in(0, 1) : 0.0;
-      return add_material(Metal<double>{n.at("albedo").color(), fuzz});
+      return add_material(Metal<double>{n.at("albedo").color(), fuzz}, n.pointer());
     }
     if (type == "dielectric") {
       n.allow_keys({"type", "ior", "tint"});
       const double ior = n.has("ior") ? n.child("ior").positive() : 1.5;
       const Vec3d tint = n.has("tint") ? n.child("tint").color() : Vec3d{1, 1, 1};
-      return add_material(Dielectric<double>{ior, tint});
+      return add_material(Dielectric<double>{ior, tint}, n.pointer());
     }
     if (type == "diffuse_light") {
       n.allow_keys({"type", "emission", "texture"});
-      return add_material(DiffuseLight<double>{read_colour_or_texture(n, "emission")});
+      return add_material(DiffuseLight<double>{read_colour_or_texture(n, "emission")}, n.pointer());
     }
     if (type == "isotropic") {
       n.allow_keys({"type", "albedo", "texture"});
-      return add_material(Isotropic<double>{read_colour_or_texture(n, "albedo")});
+      return add_material(Isotropic<double>{read_colour_or_texture(n, "albedo")}, n.pointer());
     }
     n.child("type").fail(fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light or isotropic)", type));
   }
@@ -506,9 +512,16 @@ SceneDescription parse_scene(std::string_view text, const std::string& source, c
   const Document document{source, &positions};
   SceneDescription scene;
   scene.source = source;
+  scene.written.text = std::make_shared<const std::string>(text);
   SceneReader reader(document, base_folder, scene);
   reader.read(Node(root, "", document));
   return scene;
+}
+
+std::string source_position(const SceneDescription& scene, const std::string& pointer) {
+  if (!scene.written.text) return scene.source;
+  const TextPosition at = JsonPositions(*scene.written.text).find(pointer);
+  return at.line ? fmt::format("{}:{}:{}", scene.source, at.line, at.column) : scene.source;
 }
 
 SceneDescription load_scene_file(const std::filesystem::path& file) {

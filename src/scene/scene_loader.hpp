@@ -15,6 +15,11 @@ SceneDescription load_scene_file(const std::filesystem::path& file);
 // Parses scene text; `source` names it in messages and `base_folder` resolves image paths. Throws InputError.
 SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);
 
+// "FILE:LINE:COLUMN" of the value at the JSON path `pointer` in the file the scene was read from, or "FILE" where
+// that is unknown (a scene made in code, or a path not in the file). For messages about values found unfit after
+// parsing; it reads the text again, so it is meant for errors only.
+std::string source_position(const SceneDescription& scene, const std::string& pointer);
+
 // Limits that keep a scene renderable: larger values are rejected as absurd rather than attempted.
 inline constexpr u32 kMaxImageSide = 16384;
 inline constexpr u64 kMaxImagePixels = 64ull * 1024 * 1024;
