@@ -12,11 +12,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <variant>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -212,6 +214,133 @@ PixelStatistics sample_statistics(const FlatScene<T>& scene, u32 samples) {
   });
   stats.non_finite = non_finite;
   return stats;
+}
+
+// The same statistics from any backend, through its interface only: each sample of every pixel is rendered in a
+// call of its own, and its value is the difference of the film's sums before and after (sums in double, so the
+// difference loses nothing that matters: at most about 1e-16 of the sum). A non-finite sample leaves the pixel's
+// count unchanged and is left out, as the film does. The film sums float samples in double on every backend, so
+// this works for GPU backends as well as the CPU.
+template <class T>
+PixelStatistics backend_sample_statistics(RenderBackend<T>& backend, const FlatScene<T>& scene, u32 samples) {
+  PixelStatistics stats;
+  stats.width = scene.params.width;
+  stats.height = scene.params.height;
+  stats.samples = samples;
+  const std::size_t pixels = static_cast<std::size_t>(stats.width) * stats.height;
+  stats.mean.assign(3 * pixels, 0.0);
+  stats.variance.assign(3 * pixels, 0.0);  // holds the sums of squared deviations until the end
+  std::vector<u32> counts(pixels, 0);
+  std::vector<FilmPixel> before(pixels, FilmPixel{0, 0, 0, 0, 0}), after;
+  backend.upload(scene);
+  for (u32 s = 0; s < samples; ++s) {
+    backend.render(s, 1);
+    backend.read_film(after);
+    if (after.size() != pixels) throw std::runtime_error("the film has the wrong size");
+    for (std::size_t p = 0; p < pixels; ++p) {
+      if (after[p].samples == before[p].samples) {
+        ++stats.non_finite;
+        continue;
+      }
+      const u32 count = ++counts[p];
+      const double value[3] = {after[p].r - before[p].r, after[p].g - before[p].g, after[p].b - before[p].b};
+      for (int k = 0; k < 3; ++k) {  // Welford's update
+        double& mean = stats.mean[3 * p + k];
+        const double delta = value[k] - mean;
+        mean += delta / count;
+        stats.variance[3 * p + k] += delta * (value[k] - mean);
+      }
+    }
+    std::swap(before, after);
+  }
+  for (std::size_t p = 0; p < pixels; ++p)
+    for (int k = 0; k < 3; ++k) stats.variance[3 * p + k] = counts[p] > 1 ? stats.variance[3 * p + k] / (counts[p] - 1) : 0.0;
+  return stats;
+}
+
+// One channel of one square block of pixels, in two renders of the same scene: the block means, the standard
+// deviation of their difference were the renders independent, and the z-score of the difference.
+struct BlockDifference {
+  u32 x = 0, y = 0;  // the block's top-left pixel
+  int channel = 0;
+  double mean_a = 0, mean_b = 0;
+  double sigma = 0;  // sqrt(var(mean_a) + var(mean_b))
+  double z = 0;      // |mean_a - mean_b| / sigma (infinite for a difference where both variances are 0)
+  bool within = true;
+};
+
+// The block means of two renders may differ by noise only: for a block of n pixels rendered with N samples each,
+// var(block mean) = sum over its pixels of (per-sample variance / N) / n^2, for each render; a difference is within
+// when |mean_a - mean_b| <= k sqrt(var_a + var_b) + floor, the floor being absolute_floor + relative_floor * the
+// larger mean (for blocks whose samples are all alike, where the two scalar types still round differently).
+// Returns every block and channel, the worst (largest |difference| / allowed) first.
+inline std::vector<BlockDifference> compare_block_means(const PixelStatistics& a, const PixelStatistics& b, u32 block, double k,
+                                                        double absolute_floor, double relative_floor) {
+  if (a.width != b.width || a.height != b.height) throw std::runtime_error("the renders differ in size");
+  std::vector<BlockDifference> blocks;
+  std::vector<double> excess;
+  for (u32 by = 0; by < a.height; by += block)
+    for (u32 bx = 0; bx < a.width; bx += block)
+      for (int c = 0; c < 3; ++c) {
+        double sum_a = 0, sum_b = 0, var_a = 0, var_b = 0;
+        u32 n = 0;
+        for (u32 y = by; y < std::min(by + block, a.height); ++y)
+          for (u32 x = bx; x < std::min(bx + block, a.width); ++x) {
+            const std::size_t i = 3 * (static_cast<std::size_t>(y) * a.width + x) + c;
+            sum_a += a.mean[i];
+            sum_b += b.mean[i];
+            var_a += a.variance[i] / a.samples;
+            var_b += b.variance[i] / b.samples;
+            ++n;
+          }
+        BlockDifference d;
+        d.x = bx;
+        d.y = by;
+        d.channel = c;
+        d.mean_a = sum_a / n;
+        d.mean_b = sum_b / n;
+        d.sigma = std::sqrt(var_a + var_b) / n;
+        const double difference = std::abs(d.mean_a - d.mean_b);
+        d.z = d.sigma > 0 ? difference / d.sigma : (difference > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+        const double allowed = k * d.sigma + absolute_floor + relative_floor * std::max(std::abs(d.mean_a), std::abs(d.mean_b));
+        d.within = difference <= allowed;
+        blocks.push_back(d);
+        excess.push_back(difference / allowed);
+      }
+  std::vector<std::size_t> order(blocks.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t i, std::size_t j) { return excess[i] > excess[j]; });
+  std::vector<BlockDifference> sorted;
+  for (std::size_t i : order) sorted.push_back(blocks[i]);
+  return sorted;
+}
+
+// The first `count` blocks of compare_block_means, one line each, for a failure message.
+inline std::string describe_blocks(const std::vector<BlockDifference>& blocks, std::size_t count, const char* name_a, const char* name_b) {
+  std::ostringstream out;
+  out.precision(5);
+  for (std::size_t i = 0; i < std::min(count, blocks.size()); ++i) {
+    const BlockDifference& d = blocks[i];
+    out << "  block at (" << d.x << ", " << d.y << ") " << "RGB"[d.channel] << ": " << name_a << " " << d.mean_a << ", " << name_b << " "
+        << d.mean_b << ", difference " << d.mean_a - d.mean_b << " (" << (d.mean_b != 0 ? 100 * (d.mean_a - d.mean_b) / d.mean_b : 0.0)
+        << "%), sigma " << d.sigma << ", z " << d.z << (d.within ? "" : "  OUTSIDE") << "\n";
+  }
+  return out.str();
+}
+
+// The scene moved by `offset`: every object (a medium's boundary follows its object's transform) and the camera.
+// Textures that read the world position (checker, noise) would move their pattern relative to the geometry, so a
+// scene with them is refused.
+inline SceneDescription translated(SceneDescription scene, const Vec3d& offset) {
+  for (const Texture<double>& t : scene.textures)
+    if (std::holds_alternative<CheckerTexture<double>>(t) || std::holds_alternative<NoiseTexture<double>>(t))
+      throw std::runtime_error("translated(): the scene has a texture that depends on the world position");
+  RigidTransform move;
+  move.translation = offset;
+  for (SceneObject& object : scene.objects) object.transform = object.transform.then(move);
+  scene.camera.look_from = scene.camera.look_from + offset;
+  scene.camera.look_at = scene.camera.look_at + offset;
+  return scene;
 }
 
 // Reads a portable float map (colour "PF" only), returning rows from the top like LinearImage.

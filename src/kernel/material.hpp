@@ -25,7 +25,10 @@ struct SurfacePoint {
   T u, v;
   bool front_face;  // the ray came from the side the geometric normal points to
   u32 material;
-  Vec3<T> offset;  // along the geometric normal, just beyond the rounding error of p (see describe_hit)
+  // The geometric normal (unit, pointing out of the shape) and how far along it a ray leaving p starts: just beyond
+  // the rounding error of p (see describe_hit). Zero for a scattering point in a medium.
+  Vec3<T> geometric_normal;
+  T offset;
 };
 
 template <class T>
@@ -37,9 +40,12 @@ struct Scatter {
 // A ray leaving a surface point: it starts at the point moved by its offset to the side the direction goes to, where
 // the surface it leaves can no longer be met again (robust ray spawning, see describe_hit). No minimum distance
 // is needed: every hit beyond zero counts.
+// The side is taken from the unit normal, not from the offset vector: in fixed point the offset is a few steps, and its
+// product with a grazing direction would round to zero.
 template <class T>
 PT_HD inline Ray<T> spawn_ray(const SurfacePoint<T>& at, const Vec3<T>& direction, T time) {
-  return Ray<T>{dot(direction, at.offset) < T(0) ? at.p - at.offset : at.p + at.offset, direction, time};
+  const T signed_offset = dot(direction, at.geometric_normal) < T(0) ? -at.offset : at.offset;
+  return Ray<T>{at.p + signed_offset * at.geometric_normal, direction, time};
 }
 
 // Schlick's approximation of the Fresnel reflectance of a dielectric.

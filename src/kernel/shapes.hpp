@@ -239,8 +239,9 @@ PT_HD inline void set_face_normal(SurfacePoint<T>& at, const Ray<T>& ray, const 
 inline constexpr double kSpawnRoundings = 32;
 
 template <class T>
-PT_HD inline Vec3<T> spawn_offset(const Vec3<T>& unit_normal, const Vec3<T>& error) {
-  return dot(vabs(unit_normal), error) * unit_normal;
+PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_normal, const Vec3<T>& error) {
+  at.geometric_normal = unit_normal;
+  at.offset = dot(vabs(unit_normal), error);
 }
 
 // Full description of the closest hit. With needs_uv false the texture coordinates of spheres are left at 0
@@ -261,7 +262,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       const Vec3<T> from_center = at.p - center;
       const Vec3<T> outward = from_center / length(from_center);
       at.p = center + radius * outward;
-      at.offset = spawn_offset(outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
+      set_spawn_offset(at, outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);
     }
@@ -278,8 +279,8 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       at.p = tri.p0 + along1 + along2;
       const T skew = length(tri.edge1) * length(tri.edge2) / twice_area;
       const T roundings = constant<T>(kSpawnRoundings);
-      at.offset = spawn_offset(geometric, rounding_error(vabs(tri.p0) + vabs(along1) + vabs(along2), roundings) +
-                                              rounding_error(vabs(tri.edge1) + vabs(tri.edge2), roundings * skew));
+      set_spawn_offset(at, geometric, rounding_error(vabs(tri.p0) + vabs(along1) + vabs(along2), roundings) +
+                                          rounding_error(vabs(tri.edge1) + vabs(tri.edge2), roundings * skew));
       at.front_face = dot(ray.direction, geometric) < T(0);
       const T b0 = T(1) - hit.b1 - hit.b2;
       Vec3<T> shading = geometric;
@@ -305,7 +306,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       // Re-projected onto the quad's plane, the point's error no longer grows with the ray's length; a new test
       // rounds the distance from the corner.
       at.p = at.p - dot(q.normal, at.p - q.corner) * q.normal;
-      at.offset = spawn_offset(q.normal, rounding_error(vabs(at.p) + vabs(at.p - q.corner), constant<T>(kSpawnRoundings)));
+      set_spawn_offset(at, q.normal, rounding_error(vabs(at.p) + vabs(at.p - q.corner), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, q.normal);
       at.u = hit.b1;
       at.v = hit.b2;
@@ -314,7 +315,8 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       // Scattering inside a medium has no surface: the phase function ignores normal and texture coordinates, and
       // the next ray starts at the point itself.
       at.normal = Vec3<T>{T(1), T(0), T(0)};
-      at.offset = Vec3<T>{};
+      at.geometric_normal = at.normal;
+      at.offset = T(0);
       at.front_face = true;
       at.u = T(0);
       at.v = T(0);
