@@ -118,7 +118,8 @@ template <class T> PT_HD inline T clamp(T x, T lo, T hi) { return min(max(x, lo)
 // A bound on the rounding error of `roundings` operations on values of size `magnitude`: relative for floating
 // point, absolute (a step each) for fixed point.
 template <class T> PT_HD inline T rounding_error(T magnitude, T roundings) {
-  return roundings * (ScalarTraits<T>::rounding_unit() * magnitude + ScalarTraits<T>::rounding_step());
+  // Constants first, so that they fold: one multiply-add per value for floating point.
+  return magnitude * (roundings * ScalarTraits<T>::rounding_unit()) + roundings * ScalarTraits<T>::rounding_step();
 }
 
 // Constants are written in double and converted once, so that a scalar type only needs a conversion from double.

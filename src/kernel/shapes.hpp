@@ -258,10 +258,12 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
 
     PT_HD void sphere(const Vec3<T>& center, T radius) const {
       // Re-projected onto the sphere, the point's error is that of the centre and the radius, however long the ray.
-      // A new test from there rounds the squared radius and distances: an error of the radius's size.
+      // A new test from there rounds the squared radius and distances: an error of the radius's size. The normal is
+      // the same direction divided by the radius (unit to within the hit point's error), so that the shading, which
+      // waits for it, does not wait for the square root.
       const Vec3<T> from_center = at.p - center;
-      const Vec3<T> outward = from_center / length(from_center);
-      at.p = center + radius * outward;
+      const Vec3<T> outward = from_center / radius;
+      at.p = center + from_center * (radius / length(from_center));
       set_spawn_offset(at, outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);

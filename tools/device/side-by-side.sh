@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Two builds timed side by side on the GPU machine, alternating (old, new, new, old per round) so that drift of the
-# machine's speed falls on both: `bench --runs 3` medians of the GPU lines of BENCHMARKS.md, both integrators.
+# machine's speed falls on both: `bench --runs 3` medians of two GPU lines of BENCHMARKS.md (book-1, Cornell smoke), both integrators.
 # Usage: bash tools/device/side-by-side.sh OLD_BINARY NEW_BINARY [ROUNDS]   (from the repository root, after
 # tools/device/package.sh; the binaries load their libraries from out/device/lib)
 set -uo pipefail
@@ -12,8 +12,7 @@ median() {  # binary, scene, size and spp arguments...: prints the median second
   "$binary" bench "$@" --backend cuda --runs 3 2>/dev/null | grep -oE 'median of [0-9]+: [0-9.]+ s' | awk '{print $4}'
 }
 printf '%-16s %-10s %-6s %-10s %-10s %s\n' scene integrator round old_s new_s new/old
-for line in "book1-final --width 1200 --height 800 --spp 100" "cornell-smoke --width 1024 --height 1024 --spp 1000" \
-            "seed-default --width 1920 --height 1080 --spp 1000"; do
+for line in "book1-final --width 1200 --height 800 --spp 100" "cornell-smoke --width 1024 --height 1024 --spp 1000"; do
   set -- $line
   scene=$1
   shift
