@@ -234,9 +234,12 @@ PT_HD inline void set_face_normal(SurfacePoint<T>& at, const Ray<T>& ray, const 
 // the same surface from there, and describe_hit turns the bound into an offset along the geometric normal (pbrt's
 // approach); spawn_ray starts the next ray that far off the surface, on the side it goes to, where the surface can
 // no longer be met. The bounds are relative to the size of the coordinates involved (absolute, in steps, for fixed
-// point), so a scene renders the same picture at any scale and position. The longest chain of roundings in them is
-// the sphere test's discriminant, whose squared distances make about 18; kSpawnRoundings doubles that for margin.
-inline constexpr double kSpawnRoundings = 32;
+// point), so a scene renders the same picture at any scale and position. The largest is a grazing new test of a
+// sphere: its discriminant r^2 - |perp|^2 rounds by about 8 u r^2 (u the unit roundoff), 4 u r as a distance, on top
+// of the re-projected point's u (|c| + 2 r); kSpawnRoundings = 8 covers both. (RaySpawning's grazing rays get
+// through with 2 and never with 4.) A larger factor only moves rays farther off surfaces, where they start inside
+// whatever touches the surface (a small sphere resting on a large one).
+inline constexpr double kSpawnRoundings = 8;
 
 template <class T>
 PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_normal, const Vec3<T>& error) {
