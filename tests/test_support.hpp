@@ -160,6 +160,16 @@ struct PixelStatistics {
   std::vector<double> variance;  // 3 per pixel, unbiased
   u64 non_finite = 0;
 
+  // Statistics of a width x height image, every value zero.
+  static PixelStatistics zeros(u32 width, u32 height, u32 samples) {
+    PixelStatistics stats;
+    stats.width = width;
+    stats.height = height;
+    stats.samples = samples;
+    stats.mean.assign(3 * static_cast<std::size_t>(width) * height, 0.0);
+    stats.variance.assign(stats.mean.size(), 0.0);
+    return stats;
+  }
   std::size_t values() const { return mean.size(); }
   double standard_error(std::size_t i) const { return std::sqrt(variance[i] / samples); }
   double image_mean(int channel) const {
@@ -177,13 +187,7 @@ struct PixelStatistics {
 
 template <class T>
 PixelStatistics sample_statistics(const FlatScene<T>& scene, u32 samples) {
-  PixelStatistics stats;
-  stats.width = scene.params.width;
-  stats.height = scene.params.height;
-  stats.samples = samples;
-  const std::size_t pixels = static_cast<std::size_t>(stats.width) * stats.height;
-  stats.mean.assign(3 * pixels, 0.0);
-  stats.variance.assign(3 * pixels, 0.0);
+  PixelStatistics stats = PixelStatistics::zeros(scene.params.width, scene.params.height, samples);
   std::atomic<u64> non_finite{0};
   const SceneView<T> view = scene.view();
   ParallelLoop loop(std::max(1u, std::thread::hardware_concurrency()));
@@ -223,13 +227,9 @@ PixelStatistics sample_statistics(const FlatScene<T>& scene, u32 samples) {
 // this works for GPU backends as well as the CPU.
 template <class T>
 PixelStatistics backend_sample_statistics(RenderBackend<T>& backend, const FlatScene<T>& scene, u32 samples) {
-  PixelStatistics stats;
-  stats.width = scene.params.width;
-  stats.height = scene.params.height;
-  stats.samples = samples;
+  PixelStatistics stats = PixelStatistics::zeros(scene.params.width, scene.params.height, samples);
   const std::size_t pixels = static_cast<std::size_t>(stats.width) * stats.height;
-  stats.mean.assign(3 * pixels, 0.0);
-  stats.variance.assign(3 * pixels, 0.0);  // holds the sums of squared deviations until the end
+  // stats.variance holds the sums of squared deviations until the end.
   std::vector<u32> counts(pixels, 0);
   std::vector<FilmPixel> before(pixels, FilmPixel{0, 0, 0, 0, 0}), after;
   backend.upload(scene);
