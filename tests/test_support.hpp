@@ -343,6 +343,44 @@ inline SceneDescription translated(SceneDescription scene, const Vec3d& offset) 
   return scene;
 }
 
+// The scene as if it had been modelled `factor` times larger (or smaller): every position, size and translation
+// multiplied, densities divided, the camera moved with it. Unlike flatten_scene's scale, nothing else follows: a
+// setting of a fixed size stays as it was, as it would in a file written at the other scale.
+inline SceneDescription scaled(SceneDescription scene, double factor) {
+  for (const Texture<double>& t : scene.textures)
+    if (std::holds_alternative<CheckerTexture<double>>(t) || std::holds_alternative<NoiseTexture<double>>(t))
+      throw std::runtime_error("scaled(): the scene has a texture that depends on the world position");
+  struct Scale {
+    double f;
+    void operator()(Sphere<double>& x) const { x = Sphere<double>{x.center * f, x.radius * f}; }
+    void operator()(MovingSphereSettings& x) const {
+      x.center0 = x.center0 * f;
+      x.center1 = x.center1 * f;
+      x.radius *= f;
+    }
+    void operator()(TriangleSettings& x) const {
+      for (Vec3d& v : x.vertices) v = v * f;
+    }
+    void operator()(QuadSettings& x) const { x = QuadSettings{x.corner * f, x.u * f, x.v * f}; }
+    void operator()(BoxSettings& x) const { x = BoxSettings{x.min * f, x.max * f}; }
+    void operator()(MediumSettings& x) const {
+      if (auto* sphere = std::get_if<Sphere<double>>(&x.boundary)) (*this)(*sphere);
+      if (auto* box = std::get_if<BoxSettings>(&x.boundary)) (*this)(*box);
+      x.boundary_transform.translation = x.boundary_transform.translation * f;
+      x.density /= f;
+    }
+  };
+  for (SceneObject& object : scene.objects) {
+    std::visit(Scale{factor}, object.shape);
+    object.transform.translation = object.transform.translation * factor;
+  }
+  scene.camera.look_from = scene.camera.look_from * factor;
+  scene.camera.look_at = scene.camera.look_at * factor;
+  scene.camera.focus_distance *= factor;
+  scene.camera.aperture *= factor;
+  return scene;
+}
+
 // Reads a portable float map (colour "PF" only), returning rows from the top like LinearImage.
 inline LinearImage read_pfm(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
