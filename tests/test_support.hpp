@@ -328,13 +328,19 @@ inline std::string describe_blocks(const std::vector<BlockDifference>& blocks, s
   return out.str();
 }
 
+// Moving or scaling a scene changes the pattern of a texture that reads the world position (checker, noise): such
+// scenes are refused by the helpers below.
+inline void require_position_free_textures(const SceneDescription& scene, const char* who) {
+  for (const Texture<double>& t : scene.textures)
+    if (std::holds_alternative<CheckerTexture<double>>(t) || std::holds_alternative<NoiseTexture<double>>(t))
+      throw std::runtime_error(std::string(who) + ": the scene has a texture that depends on the world position");
+}
+
 // The scene moved by `offset`: every object (a medium's boundary follows its object's transform) and the camera.
 // Textures that read the world position (checker, noise) would move their pattern relative to the geometry, so a
 // scene with them is refused.
 inline SceneDescription translated(SceneDescription scene, const Vec3d& offset) {
-  for (const Texture<double>& t : scene.textures)
-    if (std::holds_alternative<CheckerTexture<double>>(t) || std::holds_alternative<NoiseTexture<double>>(t))
-      throw std::runtime_error("translated(): the scene has a texture that depends on the world position");
+  require_position_free_textures(scene, "translated()");
   RigidTransform move;
   move.translation = offset;
   for (SceneObject& object : scene.objects) object.transform = object.transform.then(move);
@@ -347,9 +353,7 @@ inline SceneDescription translated(SceneDescription scene, const Vec3d& offset) 
 // multiplied, densities divided, the camera moved with it. Unlike flatten_scene's scale, nothing else follows: a
 // setting of a fixed size stays as it was, as it would in a file written at the other scale.
 inline SceneDescription scaled(SceneDescription scene, double factor) {
-  for (const Texture<double>& t : scene.textures)
-    if (std::holds_alternative<CheckerTexture<double>>(t) || std::holds_alternative<NoiseTexture<double>>(t))
-      throw std::runtime_error("scaled(): the scene has a texture that depends on the world position");
+  require_position_free_textures(scene, "scaled()");
   struct Scale {
     double f;
     void operator()(Sphere<double>& x) const { x = Sphere<double>{x.center * f, x.radius * f}; }

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cfloat>
+#include <type_traits>
 
 #include "kernel/platform.hpp"
 
@@ -118,8 +119,10 @@ template <class T> PT_HD inline T clamp(T x, T lo, T hi) { return min(max(x, lo)
 // A bound on the rounding error of `roundings` operations on values of size `magnitude`: relative for floating
 // point, absolute (a step each) for fixed point.
 template <class T> PT_HD inline T rounding_error(T magnitude, T roundings) {
-  // Constants first, so that they fold: one multiply-add per value for floating point.
-  return magnitude * (roundings * ScalarTraits<T>::rounding_unit()) + roundings * ScalarTraits<T>::rounding_step();
+  // Constants first, so that they fold. Floating point has no absolute part: adding its zero would still cost an
+  // addition per value (x + 0 is not x for x = -0, so the compiler keeps it).
+  if constexpr (std::is_floating_point_v<T>) return magnitude * (roundings * ScalarTraits<T>::rounding_unit());
+  else return magnitude * (roundings * ScalarTraits<T>::rounding_unit()) + roundings * ScalarTraits<T>::rounding_step();
 }
 
 // Constants are written in double and converted once, so that a scalar type only needs a conversion from double.
