@@ -1,9 +1,16 @@
 // The SYCL backend: a thin host layer over standard SYCL 2020 (USM device allocations, an in-order queue, a
 // parallel_for over the image per sample, or one per wavefront stage over its queue) running the shared kernel
 // headers. Compiled by a SYCL compiler only.
+
+// The SYCL header comes first: the kernel headers choose their SYCL paths (atomics, no x86 builtins in code that
+// may be compiled for a GPU) from whether it was seen, and sycl_backend.hpp already reaches them.
+#include <sycl/sycl.hpp>
+
 #include "backends/sycl/sycl_backend.hpp"
 
-#include <sycl/sycl.hpp>
+#if !defined(PT_SYCL_KERNELS)
+#error "the kernel headers were reached before the SYCL header: they would take their CPU-only paths"
+#endif
 
 #include <algorithm>
 #include <chrono>
