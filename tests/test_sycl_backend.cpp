@@ -13,7 +13,7 @@
 
 #include "app/backends.hpp"
 #include "backends/cpu/cpu_backend.hpp"
-#include "backends/wavefront_schedule.hpp"
+#include "integrators/wavefront.hpp"
 #include "film/film.hpp"
 #include "scene/scene_loader.hpp"
 #if PT_HAVE_SYCL

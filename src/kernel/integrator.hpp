@@ -116,4 +116,16 @@ PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 
   pixel = sum;
 }
 
+// The megakernel as a kernel over the image: samples [first_sample, first_sample + sample_count) of pixel (x, y)
+// added to the film. GPUs launch it with one sample per launch (see the CUDA backend); host devices with many.
+template <class T>
+struct MegakernelPass {
+  SceneView<T> scene;
+  FilmPixel* film;
+  u32 first_sample, sample_count;
+  PT_HD void operator()(u32 x, u32 y) const {
+    accumulate_pixel(scene, x, y, first_sample, sample_count, film[static_cast<std::size_t>(y) * scene.params.width + x]);
+  }
+};
+
 }  // namespace pt

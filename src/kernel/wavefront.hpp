@@ -5,6 +5,7 @@
 // keyed by (pixel, sample, bounce, dimension), so both integrators compute the same samples.
 #pragma once
 
+#include <cstddef>
 #include <variant>
 
 #include "kernel/integrator.hpp"
@@ -17,16 +18,40 @@ inline constexpr u32 kMaterialClasses = static_cast<u32>(std::variant_size_v<Mat
 enum WavefrontCounter : u32 { kCounterNextPaths = 0, kCounterEscaped = 1, kCounterFirstMaterial = 2 };
 inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClasses;
 
+// The one list of what a path keeps in the pool between stages, as (type, name): each field is an array of the
+// pool (structure-of-arrays). The pool's members, its bytes per path and its allocation all follow from it.
+#define PT_PATH_POOL_FIELDS(FIELD) \
+  FIELD(Vec3<T>, origin)           \
+  FIELD(Vec3<T>, direction)        \
+  FIELD(T, time)                   \
+  FIELD(Color<T>, radiance)        \
+  FIELD(Color<T>, throughput)      \
+  FIELD(u32, bounce)               \
+  FIELD(u32, item)
+
+// The closest hit found for each slot by the intersect stage, read by the shade stage; listed the same way.
+#define PT_PATH_HIT_FIELDS(FIELD) \
+  FIELD(T, t)                     \
+  FIELD(T, b1)                    \
+  FIELD(T, b2)                    \
+  FIELD(u32, primitive)
+
+#define PT_DECLARE_ARRAY(Type, name) Type* name;
+#define PT_ADD_BYTES(Type, name) +sizeof(Type)
+#define PT_VISIT_ARRAY(Type, name) visit(name);
+
 // A pool of paths, structure-of-arrays. `item` names the work item (pixel and sample) the path belongs to.
 template <class T>
 struct PathPool {
-  Vec3<T>* origin;
-  Vec3<T>* direction;
-  T* time;
-  Color<T>* radiance;
-  Color<T>* throughput;
-  u32* bounce;
-  u32* item;
+  PT_PATH_POOL_FIELDS(PT_DECLARE_ARRAY)
+
+  static constexpr u32 kBytesPerPath = 0 PT_PATH_POOL_FIELDS(PT_ADD_BYTES);
+
+  // visit(array) for every array of the pool (host side: allocation).
+  template <class Visit>
+  void for_each_array(Visit&& visit) {
+    PT_PATH_POOL_FIELDS(PT_VISIT_ARRAY)
+  }
 
   PT_HD PathState<T> load(u32 i) const { return PathState<T>{Ray<T>{origin[i], direction[i], time[i]}, radiance[i], throughput[i], bounce[i]}; }
   PT_HD void store(u32 i, const PathState<T>& path, u32 work_item) const {
@@ -40,27 +65,56 @@ struct PathPool {
   }
 };
 
-// Bytes of one path in a pool, and all it costs: two pools (current and next), its hit, and a slot in the
-// escaped queue and in every material queue.
+// The hits of a pool's paths, structure-of-arrays.
 template <class T>
-inline constexpr u32 kPathPoolBytes = 2 * sizeof(Vec3<T>) + sizeof(T) + 2 * sizeof(Color<T>) + 2 * sizeof(u32);
-template <class T>
-inline constexpr u32 kWavefrontBytesPerPath = 2 * kPathPoolBytes<T> + 3 * sizeof(T) + sizeof(u32) + (1 + kMaterialClasses) * sizeof(u32);
+struct PathHits {
+  PT_PATH_HIT_FIELDS(PT_DECLARE_ARRAY)
+
+  static constexpr u32 kBytesPerPath = 0 PT_PATH_HIT_FIELDS(PT_ADD_BYTES);
+
+  template <class Visit>
+  void for_each_array(Visit&& visit) {
+    PT_PATH_HIT_FIELDS(PT_VISIT_ARRAY)
+  }
+
+  PT_HD Hit<T> load(u32 i) const { return Hit<T>{t[i], b1[i], b2[i], primitive[i]}; }
+  PT_HD void store(u32 i, const Hit<T>& hit) const {
+    t[i] = hit.t;
+    b1[i] = hit.b1;
+    b2[i] = hit.b2;
+    primitive[i] = hit.primitive;
+  }
+};
 
 // Work items of a batch are sample-major: item = (sample - first_sample) * pixels + pixel.
 template <class T>
 struct WavefrontView {
   PathPool<T> current, next;
-  T* hit_t;
-  T* hit_b1;
-  T* hit_b2;
-  u32* hit_primitive;
+  PathHits<T> hits;
   u32* escaped;
   u32* material_queue[kMaterialClasses];
   u32* counters;             // kWavefrontCounters entries
   SampleResult<T>* results;  // one per work item of the batch
   u32 first_sample;
   u32 pixels;
+
+  // Bytes of one path in flight: two pools (current and next), its hit, and a slot in the escaped queue and in
+  // every material queue.
+  static constexpr u32 kBytesPerPath = 2 * PathPool<T>::kBytesPerPath + PathHits<T>::kBytesPerPath + (1 + kMaterialClasses) * sizeof(u32);
+
+  // visit(array, entries) for every array, sized for `pool_capacity` paths and `work_items` results (host side:
+  // allocation).
+  template <class Visit>
+  void for_each_array(u32 pool_capacity, std::size_t work_items, Visit&& visit) {
+    auto sized = [&](auto*& array) { visit(array, pool_capacity); };
+    current.for_each_array(sized);
+    next.for_each_array(sized);
+    hits.for_each_array(sized);
+    sized(escaped);
+    for (u32*& queue : material_queue) sized(queue);
+    visit(counters, kWavefrontCounters);
+    visit(results, work_items);
+  }
 
   PT_HD u32 pixel_of(u32 item) const { return item % pixels; }
   // The paths that go on were written to `next`; they become the current ones (host side, between bounces).
@@ -71,6 +125,10 @@ struct WavefrontView {
   }
   PT_HD u32 sample_of(u32 item) const { return first_sample + item / pixels; }
 };
+
+#undef PT_DECLARE_ARRAY
+#undef PT_ADD_BYTES
+#undef PT_VISIT_ARRAY
 
 template <class T>
 PT_HD inline SampleRandom wavefront_random(const SceneView<T>& scene, const WavefrontView<T>& w, u32 item) {
@@ -98,10 +156,7 @@ PT_HD inline void wavefront_intersect(const SceneView<T>& scene, const Wavefront
   const SampleRandom random = wavefront_random(scene, w, w.current.item[slot]);
   Hit<T> hit{};
   if (closest_hit(scene, path.ray, IntersectContext<T>{scene.boundaries, &random, path.bounce}, hit)) {
-    w.hit_t[slot] = hit.t;
-    w.hit_b1[slot] = hit.b1;
-    w.hit_b2[slot] = hit.b2;
-    w.hit_primitive[slot] = hit.primitive;
+    w.hits.store(slot, hit);
     const u32 material_class = hit_material_class(scene, hit);
     w.material_queue[material_class][queue_push(w.counters + kCounterFirstMaterial + material_class)] = slot;
   } else {
@@ -125,7 +180,7 @@ PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView
   PathState<T> path = w.current.load(slot);
   const u32 item = w.current.item[slot];
   const SampleRandom random = wavefront_random(scene, w, item);
-  const Hit<T> hit{w.hit_t[slot], w.hit_b1[slot], w.hit_b2[slot], w.hit_primitive[slot]};
+  const Hit<T> hit = w.hits.load(slot);
   if (path_shade(scene, path, hit, random) && path.bounce < scene.params.max_depth)
     w.next.store(queue_push(w.counters + kCounterNextPaths), path, item);
   else
@@ -139,5 +194,44 @@ PT_HD inline void wavefront_accumulate(const WavefrontView<T>& w, FilmPixel* fil
   for (u32 s = 0; s < sample_count; ++s) add_sample(sum, w.results[s * w.pixels + pixel]);
   film[pixel] = sum;
 }
+
+// The stages as kernels over a queue (or the pixels, for accumulate): what each backend launches.
+template <class T>
+struct WavefrontGenerate {
+  SceneView<T> scene;
+  WavefrontView<T> view;
+  u32 first_slot, first_item;
+  PT_HD void operator()(u32 i) const { wavefront_generate(scene, view, first_slot + i, first_item + i); }
+};
+
+template <class T>
+struct WavefrontIntersect {
+  SceneView<T> scene;
+  WavefrontView<T> view;
+  PT_HD void operator()(u32 i) const { wavefront_intersect(scene, view, i); }
+};
+
+template <class T>
+struct WavefrontEscaped {
+  SceneView<T> scene;
+  WavefrontView<T> view;
+  PT_HD void operator()(u32 i) const { wavefront_escaped(scene, view, i); }
+};
+
+template <class T>
+struct WavefrontShade {
+  SceneView<T> scene;
+  WavefrontView<T> view;
+  u32 material_class;
+  PT_HD void operator()(u32 i) const { wavefront_shade(scene, view, material_class, i); }
+};
+
+template <class T>
+struct WavefrontAccumulate {
+  WavefrontView<T> view;
+  FilmPixel* film;
+  u32 sample_count;
+  PT_HD void operator()(u32 pixel) const { wavefront_accumulate(view, film, pixel, sample_count); }
+};
 
 }  // namespace pt

@@ -1,4 +1,4 @@
-// The CPU backend: the kernel headers run on all cores through oneTBB, one task per image tile.
+// The CPU backend: the kernel headers run on all cores through oneTBB.
 #pragma once
 
 #include <memory>

@@ -23,14 +23,14 @@ class ParallelLoop {
 
   unsigned threads() const { return threads_; }
 
+  // body(first, end) for consecutive chunks of [0, count), each of at most `grain` indices.
   template <class F>
-  void run(u32 count, u32 grain, const F& body) {
+  void run_chunks(u32 count, u32 grain, const F& body) {
     if (count == 0) return;
 #if PT_CPU_STD_THREADS
     std::atomic<u32> next{0};
     auto worker = [&] {
-      for (u32 first = next.fetch_add(grain); first < count; first = next.fetch_add(grain))
-        for (u32 i = first; i < std::min(count, first + grain); ++i) body(i);
+      for (u32 first = next.fetch_add(grain); first < count; first = next.fetch_add(grain)) body(first, std::min(count, first + grain));
     };
     std::vector<std::thread> pool;
     for (unsigned t = 1; t < threads_; ++t) pool.emplace_back(worker);
@@ -38,11 +38,17 @@ class ParallelLoop {
     for (std::thread& t : pool) t.join();
 #else
     arena_.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<u32>(0, count, grain), [&](const tbb::blocked_range<u32>& r) {
-        for (u32 i = r.begin(); i < r.end(); ++i) body(i);
-      });
+      tbb::parallel_for(tbb::blocked_range<u32>(0, count, grain), [&](const tbb::blocked_range<u32>& r) { body(r.begin(), r.end()); });
     });
 #endif
+  }
+
+  // body(i) for every i in [0, count).
+  template <class F>
+  void run(u32 count, u32 grain, const F& body) {
+    run_chunks(count, grain, [&](u32 first, u32 end) {
+      for (u32 i = first; i < end; ++i) body(i);
+    });
   }
 
  private:

@@ -1,6 +1,5 @@
-// The SYCL backend: a thin host layer over standard SYCL 2020 (USM device allocations, an in-order queue, a
-// parallel_for over the image per sample, or one per wavefront stage over its queue) running the shared kernel
-// headers. Compiled by a SYCL compiler only.
+// The SYCL backend: the SYCL device (USM device allocations, an in-order queue, parallel_for launches, profiling
+// events for timing) under the integrators written once in src/integrators. Compiled by a SYCL compiler only.
 
 // The SYCL header comes first: the kernel headers choose their SYCL paths (atomics, no x86 builtins in code that
 // may be compiled for a GPU) from whether it was seen, and sycl_backend.hpp already reaches them.
@@ -14,16 +13,14 @@
 
 #include <algorithm>
 #include <chrono>
-#include <deque>
-#include <functional>
 #include <numeric>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
-#include "backends/wavefront_schedule.hpp"
-#include "kernel/integrator.hpp"
+#include "base/scalar_types.hpp"
+#include "integrators/device_backend.hpp"
 
 namespace pt {
 
@@ -66,103 +63,6 @@ auto guarded(const char* what, F&& body) {
   }
 }
 
-// One USM device allocation, freed through the queue it was made on (which outlives it).
-class DeviceMemory {
- public:
-  explicit DeviceMemory(sycl::queue& queue) : queue_(queue) {}
-  DeviceMemory(const DeviceMemory&) = delete;
-  DeviceMemory& operator=(const DeviceMemory&) = delete;
-  ~DeviceMemory() { release(); }
-
-  void* allocate(std::size_t bytes, const char* what) {
-    release();
-    // Never zero bytes: a null pointer would be indistinguishable from a failed allocation.
-    const std::size_t size = std::max<std::size_t>(bytes, 16);
-    pointer_ = guarded(what, [&] { return sycl::malloc_device(size, queue_); });
-    if (!pointer_) throw BackendError(fmt::format("sycl: {} failed: out of device memory ({} bytes)", what, size));
-    return pointer_;
-  }
-
-  template <class V>
-  const typename V::value_type* upload(const V& host, const char* what) {
-    const std::size_t bytes = host.size() * sizeof(typename V::value_type);
-    void* device = allocate(bytes, what);
-    if (bytes > 0) guarded(what, [&] { queue_.memcpy(device, host.data(), bytes).wait_and_throw(); });
-    return static_cast<const typename V::value_type*>(device);
-  }
-
-  void release() {
-    if (pointer_) sycl::free(pointer_, queue_);
-    pointer_ = nullptr;
-  }
-
- private:
-  sycl::queue& queue_;
-  void* pointer_ = nullptr;
-};
-
-// Device storage of the wavefront's pools and queues, and each stage as one parallel_for over its queue. The
-// host waits after each stage, which gives its time (wall clock) and is needed anyway to read the queue lengths.
-template <class T>
-class SyclWavefrontStages final : public WavefrontStages {
- public:
-  SyclWavefrontStages(sycl::queue& queue, std::function<void(const char*)> synchronise, const SceneView<T>& scene,
-                      FilmPixel* film, u32 pool_capacity)
-      : WavefrontStages(scene.params.width * scene.params.height, pool_capacity), queue_(queue), synchronise_(std::move(synchronise)),
-        scene_(scene), film_(film) {
-    allocate_wavefront(*this, view_,
-                       [&](std::size_t bytes) { return memory_.emplace_back(queue_).allocate(bytes, "allocating the wavefront path pool"); });
-    guarded("clearing the wavefront queues", [&] { queue_.memset(view_.counters, 0, kWavefrontCounters * sizeof(u32)); });
-    synchronise_("clearing the wavefront queues");
-  }
-
-  void begin_batch(u32 first_sample, u32) override { view_.first_sample = first_sample; }
-  void generate(u32 first_slot, u32 count, u32 first_item) override {
-    run(0, count, [=, scene = scene_, view = view_](u32 i) { wavefront_generate(scene, view, first_slot + i, first_item + i); });
-  }
-  void intersect(u32 count) override {
-    run(1, count, [scene = scene_, view = view_](u32 i) { wavefront_intersect(scene, view, i); });
-  }
-  void escaped(u32 count) override {
-    run(2, count, [scene = scene_, view = view_](u32 i) { wavefront_escaped(scene, view, i); });
-  }
-  void shade(u32 material_class, u32 count) override {
-    run(3, count, [=, scene = scene_, view = view_](u32 i) { wavefront_shade(scene, view, material_class, i); });
-  }
-  void accumulate(u32 sample_count) override {
-    run(4, view_.pixels, [=, view = view_, film = film_](u32 pixel) { wavefront_accumulate(view, film, pixel, sample_count); });
-  }
-  std::array<u32, kWavefrontCounters> take_counters() override {
-    std::array<u32, kWavefrontCounters> values{};
-    guarded("reading the wavefront queues", [&] {
-      queue_.memcpy(values.data(), view_.counters, sizeof(values));
-      queue_.memset(view_.counters, 0, sizeof(values));
-    });
-    synchronise_("reading the wavefront queues");
-    return values;
-  }
-  void swap_pools() override { view_.swap_pools(); }
-
- private:
-  template <class F>
-  void run(int stage, u32 count, const F& body) {
-    if (count == 0) return;
-    const auto start = std::chrono::steady_clock::now();
-    guarded("launching a wavefront stage", [&] {
-      queue_.parallel_for(sycl::range<1>(count), [=](sycl::item<1> item) { body(static_cast<u32>(item.get_id(0))); });
-    });
-    synchronise_("running a wavefront stage");
-    seconds_[stage] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  }
-
-  sycl::queue& queue_;
-  std::function<void(const char*)> synchronise_;
-  SceneView<T> scene_;
-  FilmPixel* film_;
-  std::deque<DeviceMemory> memory_;  // declared after the queue reference, freed through it
-  WavefrontView<T> view_{};
-};
-
 // A CPU device's runtime may hand each thread one contiguous block of rows, and image rows differ widely in cost
 // (sky above, geometry below). Work item row r renders image row (r * stride) mod height: a stride near
 // height / golden ratio and coprime with the height visits every row once and spreads each block over the image.
@@ -181,93 +81,145 @@ sycl::device pick_device(int index) {
   return devices[static_cast<std::size_t>(index)];
 }
 
-template <class T>
-class SyclBackend final : public RenderBackend<T> {
+class SyclDevice {
  public:
-  SyclBackend(int device_index, Integrator integrator)
-      : device_index_(device_index), integrator_(integrator), device_(pick_device(device_index)), queue_(make_queue()),
-        description_(describe(device_)) {
+  explicit SyclDevice(int index)
+      : index_(index), device_(pick_device(index)), host_(device_.is_cpu()),
+        profiling_(device_.has(sycl::aspect::queue_profiling)), queue_(make_queue()), description_(describe(device_)) {
     // The film sums samples in double whatever the scalar type, so a device without fp64 cannot run the kernel.
     if (!device_.has(sycl::aspect::fp64))
-      throw BackendError(fmt::format("sycl: device {} ({}) has no double precision, which the film needs", device_index_,
+      throw BackendError(fmt::format("sycl: device {} ({}) has no double precision, which the film needs", index_,
                                      device_.get_info<sycl::info::device::name>()));
   }
+  SyclDevice(const SyclDevice&) = delete;
+  SyclDevice& operator=(const SyclDevice&) = delete;
 
-  std::string name() const override {
-    return fmt::format("sycl (device {}: {}, {})", device_index_ < 0 ? std::string("default") : std::to_string(device_index_),
-                       description_, integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel");
+  std::string kind() const { return "sycl"; }
+  std::string description() const {
+    return fmt::format("device {}: {}", index_ < 0 ? std::string("default") : std::to_string(index_), description_);
+  }
+  bool host() const { return host_; }
+  bool times_on_device() const { return profiling_; }
+
+  void* allocate(std::size_t bytes, const char* what) {
+    // Never zero bytes: a null pointer would be indistinguishable from a failed allocation.
+    const std::size_t size = std::max<std::size_t>(bytes, 16);
+    void* pointer = guarded(what, [&] { return sycl::malloc_device(size, queue_); });
+    if (!pointer) throw BackendError(fmt::format("sycl: {} failed: out of device memory ({} bytes)", what, size));
+    return pointer;
+  }
+  void release(void* pointer) { sycl::free(pointer, queue_); }
+  void copy_to_device(void* to, const void* from, std::size_t bytes, const char* what) {
+    guarded(what, [&] { queue_.memcpy(to, from, bytes); });
+  }
+  void copy_to_host(void* to, const void* from, std::size_t bytes, const char* what) {
+    guarded(what, [&] { queue_.memcpy(to, from, bytes); });
+    synchronise(what);
+  }
+  void clear(void* to, std::size_t bytes, const char* what) {
+    guarded(what, [&] { queue_.memset(to, 0, bytes); });
   }
 
-  void upload(const FlatScene<T>& scene) override {
-    wavefront_.reset();
-    scene_memory_.clear();
-    view_ = place_scene(scene, [&](const auto& array, const char* what) { return scene_memory_.emplace_back(queue_).upload(array, what); });
-    pixels_ = static_cast<std::size_t>(scene.params.width) * scene.params.height;
-    film_ = static_cast<FilmPixel*>(film_memory_.allocate(pixels_ * sizeof(FilmPixel), "allocating the film"));
-    guarded("clearing the film", [&] { queue_.memset(film_, 0, pixels_ * sizeof(FilmPixel)); });
-    synchronise("clearing the film");
-    samples_per_batch_ = 1;
-    row_stride_ = host_device_ ? spreading_stride(scene.params.height) : 1;
-    if (integrator_ == Integrator::kWavefront) {
-      // Pools as large as the CUDA backend's on a GPU, as the CPU backend's elsewhere (see BENCHMARKS.md).
-      wavefront_ = std::make_unique<SyclWavefrontStages<T>>(queue_, [this](const char* what) { synchronise(what); }, view_, film_,
-                                                            device_.is_gpu() ? kGpuWavefrontPool : kHostWavefrontPool);
+  // Waits for everything queued; a synchronous or asynchronous error becomes one BackendError line.
+  void synchronise(const char* what) {
+    guarded(what, [&] { queue_.wait_and_throw(); });
+    if (!async_errors_.empty()) {
+      std::string message = async_errors_.front();
+      if (async_errors_.size() > 1) message += fmt::format(" (and {} more)", async_errors_.size() - 1);
+      async_errors_.clear();
+      throw BackendError(fmt::format("sycl: {} failed: {}", what, message));
     }
+    collect_timings(what);
   }
 
-  std::vector<std::pair<std::string, double>> stage_seconds() const override {
-    return wavefront_ ? wavefront_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
+  template <class Kernel>
+  void launch(const char* what, u32 count, const Kernel& kernel) {
+    if (count == 0) return;
+    record(guarded(what, [&] {
+      if (host_) return queue_.parallel_for(sycl::range<1>(count), [=](sycl::item<1> item) { kernel(static_cast<u32>(item.get_id(0))); });
+      // On a GPU, groups of the CUDA backend's size; the last group's extra items do nothing.
+      const std::size_t groups = (count + kItemGroup - 1) / kItemGroup;
+      return queue_.parallel_for(sycl::nd_range<1>(groups * kItemGroup, kItemGroup), [=](sycl::nd_item<1> item) {
+        const u32 i = static_cast<u32>(item.get_global_id(0));
+        if (i < count) kernel(i);
+      });
+    }));
   }
 
-  void render(u32 first_sample, u32 sample_count) override {
-    if (wavefront_) {
-      run_wavefront(*wavefront_, first_sample, sample_count);
-      return;
-    }
-    const SceneView<T> view = view_;
-    FilmPixel* const film = film_;
-    const u32 width = view.params.width;
-    const sycl::range<2> image(view.params.height, view.params.width);
-    u32 done = 0;
-    while (done < sample_count) {
-      const u32 count = std::min(samples_per_batch_, sample_count - done);
-      const auto start = std::chrono::steady_clock::now();
-      // On a GPU, one sample per work item and launch, as in the CUDA backend (launches stay short). On a CPU
-      // device a launch costs a fork and join of the worker threads, so a work item takes the batch's samples
-      // of its pixel in order: the same sums in the same order either way, so the same image.
-      const u32 per_launch = host_device_ ? count : 1;
-      const u32 row_stride = row_stride_;
-      for (u32 s = first_sample + done; s < first_sample + done + count; s += per_launch) {
-        guarded("launching the render kernel", [&] {
-          queue_.parallel_for(image, [=](sycl::item<2> item) {
-            const u32 x = static_cast<u32>(item.get_id(1));
-            const u32 y = static_cast<u32>((item.get_id(0) * row_stride) % view.params.height);
-            accumulate_pixel(view, x, y, s, per_launch, film[static_cast<std::size_t>(y) * width + x]);
-          });
+  template <class Kernel>
+  void launch_image(const char* what, u32 width, u32 height, const Kernel& kernel) {
+    record(guarded(what, [&] {
+      if (host_) {
+        const u32 stride = spreading_stride(height);
+        return queue_.parallel_for(sycl::range<2>(height, width), [=](sycl::item<2> item) {
+          kernel(static_cast<u32>(item.get_id(1)), static_cast<u32>((item.get_id(0) * stride) % height));
         });
       }
-      synchronise("running the render kernel");
-      done += count;
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      samples_per_batch_ = next_batch_samples(seconds, count, kBatchTargetSeconds);
-    }
+      // On a GPU, 16x8 pixel groups as in the CUDA backend.
+      const sycl::range<2> group(kImageGroupHeight, kImageGroupWidth);
+      const sycl::range<2> global((height + kImageGroupHeight - 1) / kImageGroupHeight * kImageGroupHeight,
+                                  (width + kImageGroupWidth - 1) / kImageGroupWidth * kImageGroupWidth);
+      return queue_.parallel_for(sycl::nd_range<2>(global, group), [=](sycl::nd_item<2> item) {
+        const u32 x = static_cast<u32>(item.get_global_id(1)), y = static_cast<u32>(item.get_global_id(0));
+        if (x < width && y < height) kernel(x, y);
+      });
+    }));
   }
 
-  void read_film(std::vector<FilmPixel>& pixels) override {
-    pixels.resize(pixels_);
-    guarded("reading the film back", [&] { queue_.memcpy(pixels.data(), film_, pixels_ * sizeof(FilmPixel)); });
-    synchronise("reading the film back");
+  // With profiling, a timer spans the device time from the start of the first launch after start_timer() to the
+  // end of the last before stop_timer(), read at the next synchronisation; without, the host waits and reads
+  // its wall clock.
+  struct Timer {
+    std::size_t first_launch;
+    std::chrono::steady_clock::time_point start;
+  };
+  Timer start_timer() {
+    if (!profiling_) guarded("running a kernel", [&] { queue_.wait_and_throw(); });
+    return Timer{launched_.size(), std::chrono::steady_clock::now()};
   }
+  void stop_timer(Timer timer, double* seconds) {
+    if (!profiling_) {
+      synchronise("running a kernel");
+      *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - timer.start).count();
+      return;
+    }
+    if (launched_.size() > timer.first_launch) timings_.push_back(Timing{timer.first_launch, launched_.size() - 1, seconds});
+  }
+
+  u64 saturations() const { return 0; }
 
  private:
-  static constexpr double kBatchTargetSeconds = 0.1;
+  static constexpr std::size_t kItemGroup = 128;
+  static constexpr std::size_t kImageGroupWidth = 16, kImageGroupHeight = 8;
+
+  struct Timing {
+    std::size_t first, last;  // indices into launched_
+    double* seconds;
+  };
+
+  void record(const sycl::event& event) {
+    if (profiling_) launched_.push_back(event);
+  }
+
+  void collect_timings(const char* what) {
+    guarded(what, [&] {
+      for (const Timing& t : timings_) {
+        const auto start = launched_[t.first].get_profiling_info<sycl::info::event_profiling::command_start>();
+        const auto end = launched_[t.last].get_profiling_info<sycl::info::event_profiling::command_end>();
+        *t.seconds += static_cast<double>(end - start) * 1e-9;
+      }
+    });
+    timings_.clear();
+    launched_.clear();
+  }
 
   // In order: every launch adds to the same film pixels, and USM carries no dependencies of its own.
   // Asynchronous errors are collected by the handler and thrown as one line at the next synchronisation.
   sycl::queue make_queue() {
     return guarded("creating a queue", [&] {
-      return sycl::queue(device_, [this](sycl::exception_list errors) { collect(errors); },
-                         sycl::property_list{sycl::property::queue::in_order()});
+      sycl::property_list properties = profiling_ ? sycl::property_list{sycl::property::queue::in_order(), sycl::property::queue::enable_profiling()}
+                                                  : sycl::property_list{sycl::property::queue::in_order()};
+      return sycl::queue(device_, [this](sycl::exception_list errors) { collect(errors); }, properties);
     });
   }
 
@@ -283,42 +235,29 @@ class SyclBackend final : public RenderBackend<T> {
     }
   }
 
-  // Waits for everything queued; a synchronous or asynchronous error becomes one BackendError line.
-  void synchronise(const char* what) {
-    guarded(what, [&] { queue_.wait_and_throw(); });
-    if (async_errors_.empty()) return;
-    std::string message = async_errors_.front();
-    if (async_errors_.size() > 1) message += fmt::format(" (and {} more)", async_errors_.size() - 1);
-    async_errors_.clear();
-    throw BackendError(fmt::format("sycl: {} failed: {}", what, message));
-  }
-
-  int device_index_;
-  Integrator integrator_;
+  int index_;
   sycl::device device_;
-  bool host_device_ = device_.is_cpu();
-  u32 row_stride_ = 1;
+  bool host_;
+  bool profiling_;
   std::vector<std::string> async_errors_;
-  sycl::queue queue_;  // declared before the allocations, so it is destroyed after them
+  sycl::queue queue_;
   std::string description_;
-  std::deque<DeviceMemory> scene_memory_;  // one per scene array (deque: allocations do not move)
-  DeviceMemory film_memory_{queue_};
-  SceneView<T> view_{};
-  FilmPixel* film_ = nullptr;
-  std::size_t pixels_ = 0;
-  u32 samples_per_batch_ = 1;
-  std::unique_ptr<SyclWavefrontStages<T>> wavefront_;  // last: freed before the scene and film it points into
+  std::vector<sycl::event> launched_;  // since the last synchronisation, with profiling
+  std::vector<Timing> timings_;
 };
+
+static_assert(Device<SyclDevice>);
 
 }  // namespace
 
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device, Integrator integrator) {
-  return std::make_unique<SyclBackend<T>>(device, integrator);
+  return std::make_unique<DeviceBackend<SyclDevice, T>>(integrator, device);
 }
 
-template std::unique_ptr<RenderBackend<float>> make_sycl_backend<float>(int, Integrator);
-template std::unique_ptr<RenderBackend<double>> make_sycl_backend<double>(int, Integrator);
+#define PT_INSTANTIATE_SYCL_BACKEND(...) \
+  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_sycl_backend<__VA_ARGS__>(int, Integrator);
+PT_FOR_EACH_FLOATING_TYPE(PT_INSTANTIATE_SYCL_BACKEND)
 
 void list_sycl_devices() {
   std::vector<sycl::device> devices;

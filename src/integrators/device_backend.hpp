@@ -1,0 +1,80 @@
+// A render backend made of a device and the integrators written once above it: the scene and film in device
+// memory, the megakernel or the wavefront integrator, timing and naming. A backend's source file instantiates
+// this with its device class (compiled by the backend's compiler, since the launches are templates).
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "backends/backend.hpp"
+#include "integrators/device.hpp"
+#include "integrators/megakernel.hpp"
+#include "integrators/wavefront.hpp"
+
+namespace pt {
+
+template <Device D, class T>
+class DeviceBackend final : public RenderBackend<T> {
+ public:
+  template <class... DeviceArguments>
+  explicit DeviceBackend(Integrator integrator, DeviceArguments&&... arguments)
+      : device_(std::forward<DeviceArguments>(arguments)...), integrator_(integrator) {}
+
+  std::string name() const override {
+    return device_.kind() + " (" + device_.description() + ", " + (integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel") + ")";
+  }
+
+  void upload(const FlatScene<T>& scene) override {
+    wavefront_.reset();
+    megakernel_.reset();
+    memory_.release_all();
+    view_ = place_scene(scene, [&](const auto& array, const char* what) { return memory_.upload(array, what); });
+    const std::size_t pixels = static_cast<std::size_t>(scene.params.width) * scene.params.height;
+    film_ = static_cast<FilmPixel*>(memory_.allocate(pixels * sizeof(FilmPixel), "allocating the film"));
+    film_pixels_ = pixels;
+    device_.clear(film_, pixels * sizeof(FilmPixel), "clearing the film");
+    if (integrator_ == Integrator::kWavefront)
+      wavefront_ = std::make_unique<WavefrontIntegrator<D, T>>(device_, view_, film_);
+    else
+      megakernel_ = std::make_unique<MegakernelIntegrator<D, T>>(device_, view_, film_);
+    device_.synchronise("copying the scene");
+    saturations_before_ = device_.saturations();
+  }
+
+  void render(u32 first_sample, u32 sample_count) override {
+    if (wavefront_) wavefront_->render(first_sample, sample_count);
+    else megakernel_->render(first_sample, sample_count);
+  }
+
+  void read_film(std::vector<FilmPixel>& pixels) override {
+    pixels.resize(film_pixels_);
+    device_.copy_to_host(pixels.data(), film_, film_pixels_ * sizeof(FilmPixel), "reading the film back");
+  }
+
+  std::optional<double> device_seconds() const override {
+    if (!device_.times_on_device()) return std::nullopt;
+    return wavefront_ ? wavefront_->seconds() : megakernel_ ? megakernel_->seconds() : 0.0;
+  }
+
+  std::vector<std::pair<std::string, double>> stage_seconds() const override {
+    return wavefront_ ? wavefront_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
+  }
+
+  u64 saturations() const override { return device_.saturations() - saturations_before_; }
+
+ private:
+  D device_;  // first: destroyed last, after everything allocated on it
+  Integrator integrator_;
+  DeviceAllocations<D> memory_{device_};  // the scene's arrays and the film
+  SceneView<T> view_{};
+  FilmPixel* film_ = nullptr;
+  std::size_t film_pixels_ = 0;
+  u64 saturations_before_ = 0;  // counted before the last upload
+  std::unique_ptr<MegakernelIntegrator<D, T>> megakernel_;
+  std::unique_ptr<WavefrontIntegrator<D, T>> wavefront_;  // last: freed before the scene and film it points into
+};
+
+}  // namespace pt

@@ -1,0 +1,53 @@
+// The megakernel integrator on any device: each sample of a pixel traced to the end in one kernel, in batches
+// sized so that a batch takes about a tenth of a second between synchronisations.
+#pragma once
+
+#include <algorithm>
+
+#include "backends/backend.hpp"
+#include "integrators/device.hpp"
+#include "kernel/integrator.hpp"
+
+namespace pt {
+
+template <Device D, class T>
+class MegakernelIntegrator {
+ public:
+  MegakernelIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film) : device_(device), scene_(scene), film_(film) {}
+
+  // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film.
+  void render(u32 first_sample, u32 sample_count) {
+    const u32 width = scene_.params.width, height = scene_.params.height;
+    u32 done = 0;
+    while (done < sample_count) {
+      const u32 count = std::min(samples_per_batch_, sample_count - done);
+      // On a GPU one sample per launch: a thread never loops over samples, so each launch starts its warps
+      // converged on a fresh sample (with a loop, later samples came out non-finite at a rate near 1e-5 on sm_90),
+      // and each launch stays far below any display watchdog's limit. On the host a launch costs a fork and join
+      // of the threads, so one launch takes the batch's samples, each pixel's in order: the same sums either way.
+      const u32 per_launch = device_.host() ? count : 1;
+      const double before = seconds_;
+      const typename D::Timer timer = device_.start_timer();
+      for (u32 s = first_sample + done; s < first_sample + done + count; s += per_launch)
+        device_.launch_image("launching the render kernel", width, height, MegakernelPass<T>{scene_, film_, s, per_launch});
+      device_.stop_timer(timer, &seconds_);
+      device_.synchronise("running the render kernel");
+      done += count;
+      samples_per_batch_ = next_batch_samples(seconds_ - before, count, kBatchTargetSeconds);
+    }
+  }
+
+  // Time spent in render kernels so far.
+  double seconds() const { return seconds_; }
+
+ private:
+  static constexpr double kBatchTargetSeconds = 0.1;
+
+  D& device_;
+  SceneView<T> scene_;
+  FilmPixel* film_;
+  u32 samples_per_batch_ = 1;
+  double seconds_ = 0;
+};
+
+}  // namespace pt
