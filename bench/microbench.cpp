@@ -23,7 +23,7 @@ std::vector<pt::Ray<float>> camera_rays(const pt::FlatScene<float>& scene, std::
   for (std::size_t i = 0; i < count; ++i) {
     const pt::SampleRandom random = pt::SampleRandom::make(7, static_cast<pt::u32>(i), 0);
     const pt::u32 x = random.bits(0, 100) % scene.params.width, y = random.bits(0, 101) % scene.params.height;
-    rays.push_back(pt::camera_ray(scene.camera, scene.params, x, y, random));
+    rays.push_back(pt::camera_ray(scene.camera, scene.params.width, scene.params.height, x, y, random));
   }
   return rays;
 }

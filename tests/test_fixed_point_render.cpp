@@ -7,7 +7,7 @@
 
 #include "app/backends.hpp"
 #include "film/film.hpp"
-#include "flat/number_formats.hpp"
+#include "base/number_formats.hpp"
 #include "scene/scene_loader.hpp"
 
 namespace pt {

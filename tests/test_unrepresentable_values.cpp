@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "flat/number_formats.hpp"
+#include "base/number_formats.hpp"
 #include "kernel/fixed_point.hpp"
 #include "scene/json_positions.hpp"
 #include "test_support.hpp"

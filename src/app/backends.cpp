@@ -5,7 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include "backends/cpu/cpu_backend.hpp"
-#include "flat/number_formats.hpp"
+#include "base/number_formats.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif
@@ -64,11 +64,9 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
   }
 }
 
-template std::unique_ptr<RenderBackend<float>> make_backend<float>(const std::string&, unsigned, int, Integrator, int);
-template std::unique_ptr<RenderBackend<double>> make_backend<double>(const std::string&, unsigned, int, Integrator, int);
-#define PT_INSTANTIATE_FIXED_BACKEND(I, F) \
-  template std::unique_ptr<RenderBackend<Fixed<I, F>>> make_backend<Fixed<I, F>>(const std::string&, unsigned, int, Integrator, int);
-PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_BACKEND)
+#define PT_INSTANTIATE_BACKEND(...) \
+  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_backend<__VA_ARGS__>(const std::string&, unsigned, int, Integrator, int);
+PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKEND)
 
 bool gpu_available() {
 #if PT_HAVE_CUDA

@@ -15,7 +15,7 @@
 #include "app/backends.hpp"
 #include "app/numerics.hpp"
 #include "film/film.hpp"
-#include "flat/number_formats.hpp"
+#include "base/number_formats.hpp"
 #include "scene/scene_loader.hpp"
 
 #ifndef PT_VERSION

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/errors.hpp"
 #include "flat/flat_scene.hpp"
 
 namespace pt {
@@ -53,11 +54,5 @@ inline u32 next_batch_samples(double seconds, u32 count, double target_seconds) 
 
 // How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront).
 enum class Integrator { kMegakernel, kWavefront };
-
-// Errors of a backend (no device, out of memory, a failed launch): one clear line, never a crash.
-class BackendError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 }  // namespace pt

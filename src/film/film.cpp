@@ -5,7 +5,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "flat/number_formats.hpp"
+#include "base/number_formats.hpp"
 
 namespace pt {
 
@@ -64,10 +64,8 @@ RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, 
   return result;
 }
 
-template RenderResult render_scene<float>(RenderBackend<float>&, const FlatScene<float>&, const ProgressCallback&);
-template RenderResult render_scene<double>(RenderBackend<double>&, const FlatScene<double>&, const ProgressCallback&);
-#define PT_INSTANTIATE_FIXED_RENDER(I, F) \
-  template RenderResult render_scene<Fixed<I, F>>(RenderBackend<Fixed<I, F>>&, const FlatScene<Fixed<I, F>>&, const ProgressCallback&);
-PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_RENDER)
+#define PT_INSTANTIATE_RENDER(...) \
+  template RenderResult render_scene<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&);
+PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_RENDER)
 
 }  // namespace pt

@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "kernel/scene_view.hpp"
+#include "kernel/bvh.hpp"
 
 namespace pt {
 

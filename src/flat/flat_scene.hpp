@@ -5,15 +5,15 @@
 #include <type_traits>
 #include <vector>
 
+#include "base/render_settings.hpp"
 #include "kernel/integrator.hpp"
-#include "scene/scene.hpp"
 
 namespace pt {
 
 template <class T>
 struct FlatScene {
   std::vector<BvhNode<T>> nodes;
-  std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, up to kWideBvhWidth children a node (kTraverseWideBvh)
+  std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, up to kWideBvhWidth children a node (walked on host CPUs: closest_hit)
   std::vector<Primitive<T>> primitives;
   std::vector<Primitive<T>> boundaries;
   std::vector<TriangleAttributes<T>> triangle_attributes;
@@ -72,6 +72,8 @@ static_assert(sizeof(BvhNode<float>) == 32, "a BVH node fills one 32-byte sector
 // squared distances fit. Throws InputError when the scene cannot be represented (for instance, too many
 // primitives, or a value beyond the type's supported range: docs/scene-format.md, "Supported range of values"),
 // naming the file, line:column and JSON path of the value.
+struct SceneDescription;  // scene/scene.hpp
+
 template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale = 0);
 

@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 
 #include "flat/bvh_builder.hpp"
-#include "flat/number_formats.hpp"
+#include "base/number_formats.hpp"
 #include "image/image_io.hpp"
 #include "scene/scene_loader.hpp"
 
@@ -731,15 +731,11 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
   return found;
 }
 
-#define PT_INSTANTIATE_FLAT_SCENE(T)                                                                  \
-  template struct FlatScene<T>;                                                                       \
-  template FlatScene<T> flatten_scene<T>(const SceneDescription&, const RenderSettings&, double);            \
-  template bool closest_hit_brute_force<T>(const FlatScene<T>&, const Ray<T>&, const IntersectContext<T>&, Hit<T>&);
-PT_INSTANTIATE_FLAT_SCENE(float)
-PT_INSTANTIATE_FLAT_SCENE(double)
-#define PT_INSTANTIATE_FIXED_FLAT_SCENE(I, F) \
-  using Fixed##I##_##F = Fixed<I, F>;        \
-  PT_INSTANTIATE_FLAT_SCENE(Fixed##I##_##F)
-PT_FOR_EACH_FIXED_FORMAT(PT_INSTANTIATE_FIXED_FLAT_SCENE)
+#define PT_INSTANTIATE_FLAT_SCENE(...)                                                                                   \
+  template struct FlatScene<__VA_ARGS__>;                                                                               \
+  template FlatScene<__VA_ARGS__> flatten_scene<__VA_ARGS__>(const SceneDescription&, const RenderSettings&, double); \
+  template bool closest_hit_brute_force<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&, const Ray<__VA_ARGS__>&,            \
+                                                     const IntersectContext<__VA_ARGS__>&, Hit<__VA_ARGS__>&);
+PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_FLAT_SCENE)
 
 }  // namespace pt

@@ -19,7 +19,7 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
-#include "scene/scene.hpp"
+#include "base/errors.hpp"
 
 namespace pt {
 

@@ -29,7 +29,7 @@ PT_HD inline SampleRandom path_random(const RenderParams<T>& params, u32 pixel, 
 // A new path: the camera ray of one sample of pixel (x, y).
 template <class T>
 PT_HD inline PathState<T> start_path(const SceneView<T>& scene, u32 x, u32 y, const SampleRandom& random) {
-  return PathState<T>{camera_ray(scene.camera, scene.params, x, y, random), Color<T>{}, Color<T>::splat(T(1)), 0};
+  return PathState<T>{camera_ray(scene.camera, scene.params.width, scene.params.height, x, y, random), Color<T>{}, Color<T>::splat(T(1)), 0};
 }
 
 // The path left the scene: it gathers the background, and ends.

@@ -7,6 +7,11 @@
 #if defined(SYCL_LANGUAGE_VERSION) && !defined(__CUDACC__)
 #include <sycl/sycl.hpp>
 #define PT_SYCL_KERNELS 1
+// AdaptiveCpp's single-pass compiler: one compilation for the host and every device, with run-time-folded
+// branches per target (__acpp_if_target_device).
+#if ACPP_LIBKERNEL_COMPILER_SUPPORTS_SSCP
+#define PT_ACPP_SINGLE_PASS 1
+#endif
 #endif
 
 #if defined(__CUDACC__)

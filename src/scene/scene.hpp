@@ -9,6 +9,8 @@
 #include <variant>
 #include <vector>
 
+#include "base/errors.hpp"
+#include "base/render_settings.hpp"
 #include "kernel/material.hpp"
 #include "kernel/shapes.hpp"
 #include "kernel/scene_view.hpp"
@@ -16,21 +18,6 @@
 namespace pt {
 
 using Vec3d = Vec3<double>;
-
-// Bad input: the message names the file and the place in it. Thrown only by host code, never in kernels.
-class InputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-struct RenderSettings {
-  u32 width = 800;
-  u32 height = 480;
-  u32 samples_per_pixel = 100;
-  u32 max_depth = 50;
-  u32 seed = 1;
-  u32 roulette_depth = 0;
-};
 
 struct CameraSettings {
   Vec3d look_from;

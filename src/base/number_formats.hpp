@@ -7,9 +7,9 @@
 
 #include <fmt/format.h>
 
+#include "base/errors.hpp"
+#include "base/scalar_types.hpp"
 #include "kernel/fixed_point.hpp"
-#include "pt_fixed_formats.hpp"
-#include "scene/scene.hpp"
 
 namespace pt {
 
@@ -28,9 +28,9 @@ int number_format_bits() {
 }
 
 inline std::vector<std::string> number_format_names() {
-  std::vector<std::string> names{"float", "double"};
-#define PT_NAME_FORMAT(I, F) names.push_back(number_format_name<Fixed<I, F>>());
-  PT_FOR_EACH_FIXED_FORMAT(PT_NAME_FORMAT)
+  std::vector<std::string> names;
+#define PT_NAME_FORMAT(...) names.push_back(number_format_name<__VA_ARGS__>());
+  PT_FOR_EACH_SCALAR_TYPE(PT_NAME_FORMAT)
 #undef PT_NAME_FORMAT
   return names;
 }
@@ -38,11 +38,9 @@ inline std::vector<std::string> number_format_names() {
 // Calls fn.template operator()<T>() with the format named `name`; throws InputError for an unknown name.
 template <class Fn>
 decltype(auto) with_number_format(const std::string& name, Fn&& fn) {
-  if (name == "float") return fn.template operator()<float>();
-  if (name == "double") return fn.template operator()<double>();
-#define PT_PICK_FORMAT(I, F) \
-  if (name == number_format_name<Fixed<I, F>>()) return fn.template operator()<Fixed<I, F>>();
-  PT_FOR_EACH_FIXED_FORMAT(PT_PICK_FORMAT)
+#define PT_PICK_FORMAT(...) \
+  if (name == number_format_name<__VA_ARGS__>()) return fn.template operator()<__VA_ARGS__>();
+  PT_FOR_EACH_SCALAR_TYPE(PT_PICK_FORMAT)
 #undef PT_PICK_FORMAT
   throw InputError(fmt::format("unknown number format '{}'", name));
 }
