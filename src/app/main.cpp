@@ -3,11 +3,15 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <numeric>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <future>
+#include <numeric>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -39,6 +43,7 @@ struct RenderOptions {
   std::string number_format = "float";
   std::string integrator = "auto";
   bool quiet = false;
+  bool verbose = false;  // render only: the time of each phase
   u32 runs = 5;  // bench only
 };
 
@@ -76,28 +81,6 @@ void draw_progress(const Progress& p) {
   std::fflush(stderr);
 }
 
-template <class T>
-int render_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
-  const FlatScene<T> flat = flatten_scene<T>(scene, settings);
-  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
-                                                              options.sycl_device);
-  const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
-  if (!options.quiet) {
-    fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
-               settings.samples_per_pixel, settings.max_depth, flat.primitives.size(), backend->name(), options.number_format);
-    if (flat.scale != 1) fmt::print(stderr, "lengths scaled by {:g} to fit {} (docs/numerics.md)\n", flat.scale, options.number_format);
-  }
-  const RenderResult result = render_scene(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
-  write_image(options.output, result.image);
-  if (!options.quiet) {
-    const RenderStats& s = result.stats;
-    fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
-               format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
-    if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
-  }
-  return 0;
-}
-
 RenderSettings effective_settings(const RenderOptions& options, const SceneDescription& scene) {
   RenderSettings settings = scene.render;
   if (options.width) settings.width = *options.width;
@@ -110,12 +93,81 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   return settings;
 }
 
-int run_render(const RenderOptions& options) {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// The phases of a command and their wall-clock seconds, printed by `render --verbose`.
+class Phases {
+ public:
+  void add(std::string name, double seconds) { phases_.emplace_back(std::move(name), seconds); }
+  // Times body() as the phase `name` and returns what it returns.
+  template <class F>
+  decltype(auto) time(std::string name, F&& body) {
+    const auto start = Clock::now();
+    struct Record {
+      Phases& phases;
+      std::string name;
+      Clock::time_point start;
+      ~Record() { phases.add(std::move(name), seconds_since(start)); }
+    } record{*this, std::move(name), start};
+    return body();
+  }
+  void print(double total) const {
+    for (const auto& [name, seconds] : phases_) fmt::print(stderr, "  {:<24} {:8.4f} s\n", name, seconds);
+    fmt::print(stderr, "  {:<24} {:8.4f} s\n", "total (from the start)", total);
+  }
+
+ private:
+  std::vector<std::pair<std::string, double>> phases_;
+};
+
+// The device starts (a GPU's context creation takes a good part of a second) while the scene loads and flattens.
+template <class T>
+int render_with(const RenderOptions& options, Clock::time_point program_start) {
+  Phases phases;
+  double device_seconds = 0;
+  std::future<std::unique_ptr<RenderBackend<T>>> starting = std::async(std::launch::async, [&] {
+    const auto start = Clock::now();
+    std::unique_ptr<RenderBackend<T>> made = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
+                                                             options.sycl_device);
+    device_seconds = seconds_since(start);
+    return made;
+  });
+  const SceneDescription scene = phases.time("scene load", [&] { return load_scene_file(options.scene); });
+  const RenderSettings settings = effective_settings(options, scene);
+  const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene<T>(scene, settings); });
+  phases.add("  of which BVH build", flat.bvh_seconds);
+  const auto wait_start = Clock::now();
+  std::unique_ptr<RenderBackend<T>> backend = starting.get();
+  phases.add("device start (overlapped)", device_seconds);
+  phases.add("waiting for the device", seconds_since(wait_start));
+  const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
+  if (!options.quiet) {
+    fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
+               settings.samples_per_pixel, settings.max_depth, flat.primitives.size(), backend->name(), options.number_format);
+    if (flat.scale != 1) fmt::print(stderr, "lengths scaled by {:g} to fit {} (docs/numerics.md)\n", flat.scale, options.number_format);
+  }
+  const RenderResult result = render_scene(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
+  phases.add("upload", result.stats.upload_seconds);
+  phases.add("render", result.stats.seconds);
+  phases.add("read-back", result.stats.read_back_seconds);
+  phases.add("resolve", result.stats.resolve_seconds);
+  phases.time("encode and write", [&] { write_image(options.output, result.image); });
+  if (!options.quiet) {
+    const RenderStats& s = result.stats;
+    fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
+               format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
+    if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
+  }
+  if (options.verbose) phases.print(seconds_since(program_start));
+  return 0;
+}
+
+
+int run_render(const RenderOptions& options, Clock::time_point program_start) {
   // Fail on an unusable output name before spending time on the render.
   image_format_for(options.output);
-  const SceneDescription scene = load_scene_file(options.scene);
-  const RenderSettings settings = effective_settings(options, scene);
-  return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, scene, settings); });
+  return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, program_start); });
 }
 
 // Renders the scene `runs` times after a short warm-up and reports the median: the benchmark of BENCHMARKS.md.
@@ -164,6 +216,7 @@ int run_bench(const RenderOptions& options) {
 
 int main(int argc, char** argv) {
   using namespace pt;
+  const auto program_start = Clock::now();
   CLI::App app{"pathtracer: a physically based Monte Carlo path tracer for CPUs and GPUs"};
   app.set_version_flag("--version", std::string("pathtracer ") + PT_VERSION);
   app.require_subcommand(1);
@@ -194,6 +247,7 @@ int main(int argc, char** argv) {
   }
   render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
+  render->add_flag("-v,--verbose", options.verbose, "Print the time of each phase (device start, scene load, BVH build, upload, render, read-back, encode)");
   bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
 
   NumericsOptions numerics_options;
@@ -222,7 +276,7 @@ int main(int argc, char** argv) {
     }
     if (*bench) return run_bench(options);
     if (*numerics) return run_numerics(numerics_options);
-    return run_render(options);
+    return run_render(options, program_start);
   } catch (const InputError& e) {
     fmt::print(stderr, "pathtracer: error: {}\n", e.what());
   } catch (const BackendError& e) {

@@ -11,6 +11,9 @@ namespace pt {
 
 struct RenderStats {
   double seconds = 0;           // wall time of the rendering passes
+  double upload_seconds = 0;    // copying the scene to the backend and clearing its film
+  double read_back_seconds = 0; // copying the film back
+  double resolve_seconds = 0;   // turning the film into an image
   u64 samples = 0;              // camera samples traced
   u64 rays = 0;                 // closest-hit queries
   u64 dropped_samples = 0;      // non-finite samples left out of their pixel

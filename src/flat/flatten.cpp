@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -680,12 +681,14 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     flat.triangle_attributes.push_back(out);
   }
 
+  const auto bvh_start = std::chrono::steady_clock::now();
   const BuiltBvh bvh = build_bvh(bounds);
   try {
   flat.bvh_depth = bvh.depth;
   flat.nodes.reserve(bvh.nodes.size());
   for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
   flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
+  flat.bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
   make_perlin_tables(flat);
   } catch (const DoesNotFit& e) {
     throw InputError(fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",

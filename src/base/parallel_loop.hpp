@@ -1,7 +1,7 @@
-// The CPU backend's one parallel primitive: body(i) for every i in [0, count), `grain` indices at a time, on a
-// fixed number of threads. oneTBB's work-stealing scheduler in normal builds; plain std::threads taking chunks
-// from an atomic counter in ThreadSanitizer builds, because Debian's libtbb is not instrumented and ThreadSanitizer
-// cannot see its synchronisation (every render would be reported as a race).
+// The one parallel primitive of host code (the CPU backend, image encoding): body(i) for every i in [0, count),
+// `grain` indices at a time, on a fixed number of threads. oneTBB's work-stealing scheduler in normal builds; plain
+// std::threads taking chunks from an atomic counter in ThreadSanitizer builds, because Debian's libtbb is not
+// instrumented and ThreadSanitizer cannot see its synchronisation (every render would be reported as a race).
 #pragma once
 
 #include <algorithm>
