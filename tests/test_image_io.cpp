@@ -105,6 +105,32 @@ TEST(OutputFilesReadBack, PngIsEightBitSrgbClampedWithRowsFromTheTop) {
   EXPECT_EQ(dir.entries(), std::vector<std::string>{"image.png"});
 }
 
+// The encoder deflates bands of 32 rows on separate threads and joins them into one stream, split into IDAT chunks
+// of 1 MiB: an image of many bands, a last band that is not full, and noise that does not compress (so the data
+// spans several chunks) must read back byte for byte.
+TEST(OutputFilesReadBack, PngOfManyBandsAndChunksReadsBackExactly) {
+  test::TempDir dir;
+  LinearImage image;
+  image.width = 1031;
+  image.height = 421;  // 13 full bands of 32 rows and one of 5
+  image.rgb.resize(static_cast<std::size_t>(image.width) * image.height * 3);
+  u32 state = 12345;
+  for (float& v : image.rgb) {
+    state = state * 1664525u + 1013904223u;
+    v = static_cast<float>(state >> 8) * 0x1p-24f * 1.2f;  // some above 1, to be clamped
+  }
+  write_image(dir / "noise.png", image);
+  EXPECT_GT(std::filesystem::file_size(dir / "noise.png"), 1u << 20);
+  int width = 0, height = 0;
+  const std::vector<unsigned char> bytes = read_png(dir / "noise.png", width, height);
+  ASSERT_EQ(width, 1031);
+  ASSERT_EQ(height, 421);
+  ASSERT_EQ(bytes.size(), image.rgb.size());
+  std::size_t mismatches = 0;
+  for (std::size_t i = 0; i < bytes.size(); ++i) mismatches += bytes[i] != png_byte(image.rgb[i]);
+  EXPECT_EQ(mismatches, 0u);
+}
+
 TEST(OutputFilesReadBack, ExrHasTheMagicNumberAndExactFloats) {
   test::TempDir dir;
   const LinearImage image = synthetic_image(7, 4);

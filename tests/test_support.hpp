@@ -24,7 +24,7 @@
 #include <gtest/gtest.h>
 
 #include "backends/cpu/cpu_backend.hpp"
-#include "backends/cpu/parallel_loop.hpp"
+#include "base/parallel_loop.hpp"
 #include "film/film.hpp"
 #include "flat/flat_scene.hpp"
 #include "image/image_io.hpp"
