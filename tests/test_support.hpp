@@ -440,12 +440,16 @@ struct CommandResult {
 };
 
 #ifdef PT_PATHTRACER_BINARY
+// The program: where it was built, unless PT_PATHTRACER_BINARY in the environment says it moved.
+inline std::string pathtracer_binary() {
+  const char* moved = std::getenv("PT_PATHTRACER_BINARY");
+  return moved && *moved ? moved : PT_PATHTRACER_BINARY;
+}
+
 // Runs `pathtracer ARGUMENTS` (arguments already quoted for the shell), capturing stderr in `folder`.
 inline CommandResult run_pathtracer(const std::string& arguments, const TempDir& folder) {
   const std::filesystem::path err = folder / "stderr.txt";
-  const char* moved = std::getenv("PT_PATHTRACER_BINARY");
-  const std::string binary = moved && *moved ? moved : PT_PATHTRACER_BINARY;
-  const std::string command = "'" + binary + "' " + arguments + " > /dev/null 2> '" + err.string() + "'";
+  const std::string command = "'" + pathtracer_binary() + "' " + arguments + " > /dev/null 2> '" + err.string() + "'";
   const int status = std::system(command.c_str());
   CommandResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

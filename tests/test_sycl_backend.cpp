@@ -16,6 +16,7 @@
 #include "integrators/wavefront.hpp"
 #include "film/film.hpp"
 #include "scene/scene_loader.hpp"
+#include "test_support.hpp"
 #if PT_HAVE_SYCL
 #include "backends/sycl/sycl_backend.hpp"
 #endif
@@ -43,7 +44,7 @@ struct Rendered {
 
 template <class T>
 Rendered render_on(RenderBackend<T>& backend, const std::string& scene_name, u32 width, u32 height, u32 spp, u32 seed) {
-  const SceneDescription scene = load_scene_file(std::filesystem::path(PT_SOURCE_DIR) / "scenes" / scene_name);
+  const SceneDescription scene = load_scene_file(test::scene_path(scene_name));
   RenderSettings settings = scene.render;
   settings.width = width;
   settings.height = height;
@@ -117,7 +118,7 @@ class SyclSampleSplit : public ::testing::TestWithParam<Integrator> {};
 
 TEST_P(SyclSampleSplit, ImageDoesNotDependOnHowSamplesAreSplit) {
   const std::unique_ptr<RenderBackend<float>> sycl = make_sycl_backend<float>(test_device(), GetParam());
-  const SceneDescription scene = load_scene_file(std::filesystem::path(PT_SOURCE_DIR) / "scenes" / "tiny.json");
+  const SceneDescription scene = load_scene_file(test::scene_path("tiny.json"));
   const FlatScene<float> flat = flatten_scene<float>(scene, scene.render);
   std::vector<FilmPixel> whole, split;
   sycl->upload(flat);
@@ -146,7 +147,7 @@ INSTANTIATE_TEST_SUITE_P(Integrators, SyclSampleSplit, ::testing::Values(Integra
 // The wavefront stages report a time for each stage they ran.
 TEST(SyclBackend, WavefrontReportsStageTimes) {
   const std::unique_ptr<RenderBackend<float>> sycl = make_sycl_backend<float>(test_device(), Integrator::kWavefront);
-  const SceneDescription scene = load_scene_file(std::filesystem::path(PT_SOURCE_DIR) / "scenes" / "tiny.json");
+  const SceneDescription scene = load_scene_file(test::scene_path("tiny.json"));
   sycl->upload(flatten_scene<float>(scene, scene.render));
   sycl->render(0, 2);
   const auto stages = sycl->stage_seconds();
@@ -176,7 +177,7 @@ TEST(SyclBackend, SelectedByName) {
 
 #ifdef PT_PATHTRACER_BINARY
 TEST(SyclBackend, DevicesCommandListsSyclDevices) {
-  FILE* pipe = popen(PT_PATHTRACER_BINARY " devices", "r");
+  FILE* pipe = popen(("'" + test::pathtracer_binary() + "' devices").c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;
   char buffer[512];

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Two builds of pathtracer compared side by side on this machine, in rounds of old, new, new, old (so that drift of the
 # machine's speed falls on both): single-thread short renders, the ratio new/old of each round's sums, then the
-# median and quartiles of the ratios. Usage: bash tools/bench-abba.sh OLD_BINARY NEW_BINARY [ROUNDS] [SCENE]
+# median and quartiles of the ratios. Usage: bash tools/bench-abba.sh OLD_BINARY NEW_BINARY [ROUNDS] [SCENE] [INTEGRATOR]
 set -euo pipefail
-old=$1 new=$2 rounds=${3:-16} scene=${4:-seed-default}
-args=(scenes/$scene.json --backend cpu --threads 1 --integrator megakernel --width 400 --height 240 --spp 16 --runs 1)
+old=$1 new=$2 rounds=${3:-16} scene=${4:-seed-default} integrator=${5:-megakernel}
+args=(scenes/$scene.json --backend cpu --threads 1 --integrator "$integrator" --width 400 --height 240 --spp 16 --runs 1)
 seconds() { "$1" bench "${args[@]}" 2>/dev/null | grep -oE 'median of [0-9]+: [0-9.]+ s' | awk '{print $4}'; }
 for _ in $(seq "$rounds"); do
   a=$(seconds "$old") b=$(seconds "$new") b2=$(seconds "$new") a2=$(seconds "$old")

@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# Runs on the GPU machine, from the repository root, with out/sycl-device.tar.xz carried there (made here by
+# tools/device/package-sycl.sh from a -DPT_SYCL=ON -DACPP_TARGETS=generic build): the SYCL test suite on the GPU,
+# compute-sanitizer on SYCL renders, the SYCL backend against the CUDA backend side by side, and the time from
+# command to image. The JIT cache is kept in $PT_SYCL_CACHE_DIR (default /tmp/pt-sycl-cache) and warmed before any
+# timing. CUDA_BINARY (default out/cuda-bin/pathtracer) is a CUDA build for the comparison; it loads its libraries
+# from the SYCL package. Logs go to $OUT.
+# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time]   (all when no argument is given)
+set -uo pipefail
+OUT="${OUT:-/tmp/pt-out}"
+mkdir -p "$OUT"
+root=/tmp/pt-sycl
+if [ ! -d "$root/sycl-device" ]; then
+  mkdir -p "$root" && tar -xJf out/sycl-device.tar.xz -C "$root" || exit 1
+fi
+export PT_SYCL_CACHE_DIR="${PT_SYCL_CACHE_DIR:-/tmp/pt-sycl-cache}"
+# shellcheck source=/dev/null
+source "$root/sycl-device/sycl-env.sh" || exit 1
+export PT_SOURCE_DIR="$PWD" PT_PATHTRACER_BINARY="$root/sycl-device/bin/pathtracer" ACPP_DEBUG_LEVEL=0
+PT="$root/sycl-device/bin/pathtracer"
+CUDA_PT="${CUDA_BINARY:-$PWD/out/cuda-bin/pathtracer}"
+SCRATCH=$(mktemp -d)
+cd "$SCRATCH" || exit 1  # the JIT writes its temporary files into the current directory
+repo="$OLDPWD"
+steps="${*:-check sanitize bench time}"
+"$PT" devices
+gpu=$("$PT" devices | awk -F'[ :]' '/^sycl [0-9]+: .*gpu/ {print $2; exit}')
+echo "SYCL GPU device: ${gpu:-none}"
+[ -n "$gpu" ] || exit 1
+
+if [[ $steps == *check* ]]; then
+  echo "== test suite (SYCL cases on the GPU: PT_SYCL_TEST_DEVICE=$gpu)"
+  PT_SYCL_TEST_DEVICE=$gpu timeout 540 "$root/sycl-device/bin/pt_tests" --gtest_brief=1 --gtest_filter='*Sycl*:*sycl*' >"$OUT/sycl-tests.log" 2>&1
+  echo "pt_tests exit $?"; grep -E "PASSED|FAILED|tests ran" "$OUT/sycl-tests.log" | tail -8
+  grep -E "rmse|RMSE" "$OUT/sycl-tests.log" | head -20
+fi
+
+if [[ $steps == *sanitize* ]]; then
+  echo "== compute-sanitizer memcheck on SYCL renders (small sizes, both integrators)"
+  for scene in "$repo"/scenes/*.json; do
+    for integrator in megakernel wavefront; do
+      compute-sanitizer --tool memcheck --error-exitcode 9 "$PT" render "$scene" --backend sycl --sycl-device "$gpu" \
+        --integrator $integrator --width 32 --height 24 --spp 2 -q -o "$SCRATCH/sanitize.pfm" >"$SCRATCH/sanitizer.log" 2>&1
+      status=$?
+      [ $status -eq 0 ] || { echo "FAILED memcheck $integrator $(basename "$scene"): exit $status"; tail -5 "$SCRATCH/sanitizer.log"; }
+    done
+    echo "sanitized $(basename "$scene")"
+  done
+fi
+
+median() {  # binary, backend arguments..., scene arguments...: the median seconds of bench
+  "$@" --runs 3 2>/dev/null | grep -oE 'median of [0-9]+: [0-9.]+ s' | awk '{print $4}'
+}
+if [[ $steps == *bench* ]]; then
+  echo "== SYCL against CUDA, side by side (CUDA, SYCL, SYCL, CUDA per line; bench medians, device-event timing)"
+  printf '%-14s %-10s %-10s %-10s %s\n' scene integrator cuda_s sycl_s sycl/cuda
+  for line in "book1-final --width 1200 --height 800 --spp 100" "seed-default --width 1920 --height 1080 --spp 1000" \
+              "cornell-smoke --width 1024 --height 1024 --spp 1000"; do
+    set -- $line
+    scene=$1
+    shift
+    for integrator in megakernel wavefront; do
+      args=("$repo/scenes/$scene.json" "$@" --integrator $integrator)
+      a=$(median "$CUDA_PT" bench "${args[@]}" --backend cuda)
+      b=$(median "$PT" bench "${args[@]}" --backend sycl --sycl-device "$gpu")
+      b2=$(median "$PT" bench "${args[@]}" --backend sycl --sycl-device "$gpu")
+      a2=$(median "$CUDA_PT" bench "${args[@]}" --backend cuda)
+      awk -v s="$scene" -v i=$integrator -v a="$a" -v a2="$a2" -v b="$b" -v b2="$b2" \
+        'BEGIN { c = (a + a2) / 2; y = (b + b2) / 2; printf "%-14s %-10s %-10.4f %-10.4f %.3f\n", s, i, c, y, y / c }' | tee -a "$OUT/sycl-bench.txt"
+    done
+  done
+fi
+
+if [[ $steps == *time* ]]; then
+  echo "== time to image: book-1 1200x800 100 spp to PNG (three runs each; the JIT cache is warm)"
+  for backend in cuda sycl; do
+    binary=$PT; [ $backend = cuda ] && binary=$CUDA_PT
+    for i in 1 2 3; do
+      /usr/bin/time -f "$backend: %e s wall" "$binary" render "$repo/scenes/book1-final.json" --backend $backend --width 1200 --height 800 \
+        --spp 100 -o "$SCRATCH/book1.png" -v 2>"$SCRATCH/time.log"
+      grep -E "wall|device start|waiting|render|total" "$SCRATCH/time.log" | tr '\n' ' '; echo
+    done
+  done
+fi
