@@ -376,6 +376,16 @@ TEST_F(CommandLineErrors, ValidRenderSucceeds) {
   EXPECT_TRUE(std::filesystem::is_regular_file(dir_ / "out.png"));
 }
 
+TEST_F(CommandLineErrors, VerboseRenderReportsEveryPhase) {
+  // -q silences the summary but not the phases asked for with -v.
+  const test::CommandResult result = render(scene_, "-v -o " + test::quoted(dir_ / "out.png"));
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  for (const char* phase : {"scene load", "flatten (BVH included)", "of which BVH build", "device start", "upload", "render",
+                            "read-back", "resolve", "encode and write", "total (from the start)"})
+    EXPECT_NE(result.err.find(phase), std::string::npos) << phase << " missing from:\n" << result.err;
+  EXPECT_TRUE(std::filesystem::is_regular_file(dir_ / "out.png"));
+}
+
 TEST_F(CommandLineErrors, MalformedSceneNamesFileAndPosition) {
   test::write_text_file(scene_, with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": NaN, "material": "white"})"));
   const test::CommandResult result = render(scene_, "-o " + test::quoted(dir_ / "out.png"));

@@ -23,8 +23,8 @@ SceneDescription tiny_scene(RenderSettings& settings) {
 }
 
 template <class T>
-RenderResult render(const SceneDescription& scene, const RenderSettings& settings) {
-  auto backend = make_backend<T>("cpu", 2, 0);
+RenderResult render(const SceneDescription& scene, const RenderSettings& settings, Integrator integrator = Integrator::kMegakernel) {
+  auto backend = make_backend<T>("cpu", 2, 0, integrator);
   return render_scene(*backend, flatten_scene<T>(scene, settings));
 }
 
@@ -84,6 +84,22 @@ TEST(FixedPointRender, SaturationsReachTheStatistics) {
   using Q12_12 = Fixed<12, 12>;
   EXPECT_GT(render<Q12_12>(scene, settings).stats.saturations, 0u);
   EXPECT_EQ(render<float>(scene, settings).stats.saturations, 0u);
+}
+
+// The wavefront runs the same arithmetic on the same samples as the megakernel, so it counts the same saturations
+// (the device layer counts them for every launch of either integrator); a second render on the same backend counts
+// its own only.
+TEST(FixedPointRender, SaturationsAreTheSameForBothIntegratorsAndCountedPerRender) {
+  RenderSettings settings;
+  const SceneDescription scene = tiny_scene(settings);
+  using Q12_12 = Fixed<12, 12>;
+  const u64 megakernel = render<Q12_12>(scene, settings, Integrator::kMegakernel).stats.saturations;
+  EXPECT_GT(megakernel, 0u);
+  EXPECT_EQ(render<Q12_12>(scene, settings, Integrator::kWavefront).stats.saturations, megakernel);
+  auto backend = make_backend<Q12_12>("cpu", 2, 0);
+  const FlatScene<Q12_12> flat = flatten_scene<Q12_12>(scene, settings);
+  EXPECT_EQ(render_scene(*backend, flat).stats.saturations, megakernel);
+  EXPECT_EQ(render_scene(*backend, flat).stats.saturations, megakernel);
 }
 
 }  // namespace

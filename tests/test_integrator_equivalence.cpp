@@ -61,6 +61,16 @@ TEST_P(IntegratorEquivalence, WavefrontEqualsMegakernelBitwiseInDouble) {
   EXPECT_EQ(0, std::memcmp(mega.image.rgb.data(), wave.image.rgb.data(), mega.image.rgb.size() * sizeof(float)));
 }
 
+// `auto` is decided by the device: the megakernel on the host's processor, the wavefront on a GPU.
+TEST(IntegratorChoice, AutoTakesTheMegakernelOnTheHostAndTheWavefrontOnAGpu) {
+  EXPECT_NE(make_backend<float>("cpu", 1, 0, Integrator::kAuto)->name().find("megakernel"), std::string::npos);
+#if PT_HAVE_CUDA
+  if (cuda_device_count() > 0) {
+    EXPECT_NE(make_backend<float>("cuda", 1, 0, Integrator::kAuto)->name().find("wavefront"), std::string::npos);
+  }
+#endif
+}
+
 // Wavefront against megakernel on a device backend, held to the backend-parity bound: their distance at most a
 // quarter of the distance between two seeds, equal means within 0.5 %, 90 % of channels within 1e-3.
 void expect_wavefront_matches_megakernel(const std::string& backend, const std::string& scene_name, const SceneDescription& description) {

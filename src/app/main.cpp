@@ -48,14 +48,13 @@ struct RenderOptions {
   u32 runs = 5;  // bench only
 };
 
-// "auto" picks each backend's faster integrator as measured in BENCHMARKS.md: the wavefront on CUDA GPUs (about 2x
-// on material-heavy scenes), the megakernel on the CPU and on SYCL (only CPU devices were measured there; the
-// wavefront's queues cost more on them than they save).
+// "auto" lets the backend pick its device's faster integrator as measured in BENCHMARKS.md: the wavefront on GPUs
+// (about 2x on material-heavy scenes with CUDA), the megakernel on the host's processor (the wavefront's queues
+// cost more there than they save), whichever backend drives it.
 Integrator integrator_of(const RenderOptions& options) {
   if (options.integrator == "wavefront") return Integrator::kWavefront;
   if (options.integrator == "megakernel") return Integrator::kMegakernel;
-  const bool gpu = options.backend == "cuda" || (options.backend == "auto" && gpu_available());
-  return gpu ? Integrator::kWavefront : Integrator::kMegakernel;
+  return Integrator::kAuto;
 }
 
 std::string format_duration(double seconds) {

@@ -52,7 +52,8 @@ inline u32 next_batch_samples(double seconds, u32 count, double target_seconds) 
   return static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
 }
 
-// How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront).
-enum class Integrator { kMegakernel, kWavefront };
+// How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront); kAuto lets the
+// backend take its device's faster one (the wavefront on GPUs, the megakernel on the host: BENCHMARKS.md).
+enum class Integrator { kMegakernel, kWavefront, kAuto };
 
 }  // namespace pt

@@ -21,7 +21,8 @@ class DeviceBackend final : public RenderBackend<T> {
  public:
   template <class... DeviceArguments>
   explicit DeviceBackend(Integrator integrator, DeviceArguments&&... arguments)
-      : device_(std::forward<DeviceArguments>(arguments)...), integrator_(integrator) {}
+      : device_(std::forward<DeviceArguments>(arguments)...),
+        integrator_(integrator != Integrator::kAuto ? integrator : device_.host() ? Integrator::kMegakernel : Integrator::kWavefront) {}
 
   std::string name() const override {
     return device_.kind() + " (" + device_.description() + ", " + (integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel") + ")";

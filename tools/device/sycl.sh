@@ -5,7 +5,7 @@
 # command to image. The JIT cache is kept in $PT_SYCL_CACHE_DIR (default /tmp/pt-sycl-cache) and warmed before any
 # timing. CUDA_BINARY (default out/cuda-bin/pathtracer) is a CUDA build for the comparison; it loads its libraries
 # from the SYCL package. Logs go to $OUT.
-# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time]   (all when no argument is given)
+# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time] [hang]   (all but hang when no argument is given)
 set -uo pipefail
 OUT="${OUT:-/tmp/pt-out}"
 mkdir -p "$OUT"
@@ -23,6 +23,13 @@ SCRATCH=$(mktemp -d)
 cd "$SCRATCH" || exit 1  # the JIT writes its temporary files into the current directory
 repo="$OLDPWD"
 steps="${*:-check sanitize bench time}"
+limit() {  # seconds, command...: runs the command with a time limit, printing its exit status and wall time
+  local seconds=$1 start
+  shift
+  start=$(date +%s%N)
+  timeout "$seconds" "$@" >"$SCRATCH/limited.log" 2>&1
+  echo "exit $?, $(( ($(date +%s%N) - start) / 1000000 )) ms"
+}
 "$PT" devices
 gpu=$("$PT" devices | awk -F'[ :]' '/^sycl [0-9]+: .*gpu/ {print $2; exit}')
 echo "SYCL GPU device: ${gpu:-none}"
@@ -81,4 +88,21 @@ if [[ $steps == *time* ]]; then
       grep -E "wall|device start|waiting|render|total" "$SCRATCH/time.log" | tr '\n' ' '; echo
     done
   done
+fi
+
+if [[ $steps == *hang* ]]; then
+  echo "== the megakernel launch that does not end (book-1 1200x800): spp against outcome, GPU load while it runs"
+  for spp in 20 40 50 60 100; do
+    for integrator in megakernel wavefront; do
+      echo -n "$integrator $spp spp: "
+      limit 30 "$PT" render "$repo/scenes/book1-final.json" --backend sycl --sycl-device "$gpu" --integrator $integrator \
+        --width 1200 --height 800 --spp $spp -q -o "$SCRATCH/hang.pfm"
+    done
+  done
+  ( sleep 10; nvidia-smi --query-gpu=utilization.gpu,clocks.sm --format=csv,noheader ) &
+  ACPP_DEBUG_LEVEL=3 limit 20 "$PT" render "$repo/scenes/book1-final.json" --backend sycl --sycl-device "$gpu" --integrator megakernel \
+    --width 1200 --height 800 --spp 100 -q -o "$SCRATCH/hang.pfm"
+  wait
+  echo "dispatches logged: $(grep -c 'inorder_executor: Dispatching' "$SCRATCH/limited.log")"
+  grep -v ptx90 "$SCRATCH/limited.log" | tail -3 | cut -c1-200
 fi
