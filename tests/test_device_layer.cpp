@@ -1,0 +1,121 @@
+// The integrators written once over the device interface: their GPU paths (one sample per megakernel launch,
+// batches between synchronisations, the large wavefront pool) run here on a device that computes on the CPU but
+// says it is not the host, and must give the CPU backend's film bit for bit, with the launches the GPU path makes.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "backends/cpu/cpu_device.hpp"
+#include "integrators/device_backend.hpp"
+#include "test_support.hpp"
+
+namespace pt {
+namespace {
+
+// The CPU device, reporting itself as a GPU (not the host) and counting what the integrators ask of it.
+class CountingGpuLikeDevice {
+ public:
+  struct Counts {
+    u32 item_launches = 0, image_launches = 0, synchronisations = 0, timers = 0;
+  };
+
+  explicit CountingGpuLikeDevice(Counts* counts) : cpu_(2), counts_(counts) {}
+
+  std::string kind() const { return "gpu-like"; }
+  std::string description() const { return "the CPU device, not the host"; }
+  bool host() const { return false; }
+  bool times_on_device() const { return true; }
+  void* allocate(std::size_t bytes, const char* what) { return cpu_.allocate(bytes, what); }
+  void release(void* pointer) { cpu_.release(pointer); }
+  void copy_to_device(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_device(to, from, bytes, what); }
+  void copy_to_host(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_host(to, from, bytes, what); }
+  void clear(void* to, std::size_t bytes, const char* what) { cpu_.clear(to, bytes, what); }
+  void synchronise(const char* what) {
+    ++counts_->synchronisations;
+    cpu_.synchronise(what);
+  }
+  template <class Kernel>
+  void launch(const char* what, u32 count, const Kernel& kernel) {
+    ++counts_->item_launches;
+    cpu_.launch(what, count, kernel);
+  }
+  template <class Kernel>
+  void launch_image(const char* what, u32 width, u32 height, const Kernel& kernel) {
+    ++counts_->image_launches;
+    cpu_.launch_image(what, width, height, kernel);
+  }
+  using Timer = CpuDevice::Timer;
+  Timer start_timer() {
+    ++counts_->timers;
+    return cpu_.start_timer();
+  }
+  void stop_timer(Timer timer, double* seconds) { cpu_.stop_timer(timer, seconds); }
+  u64 saturations() const { return cpu_.saturations(); }
+
+ private:
+  CpuDevice cpu_;
+  Counts* counts_;
+};
+static_assert(Device<CountingGpuLikeDevice>);
+
+bool same_film(const std::vector<FilmPixel>& a, const std::vector<FilmPixel>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(&a[i].r, &b[i].r, sizeof(double)) || std::memcmp(&a[i].g, &b[i].g, sizeof(double)) ||
+        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || a[i].samples != b[i].samples || a[i].rays != b[i].rays)
+      return false;
+  return true;
+}
+
+std::vector<FilmPixel> render_gpu_like(const FlatScene<float>& scene, Integrator integrator, const std::vector<u32>& passes,
+                                       CountingGpuLikeDevice::Counts& counts, std::string* name = nullptr) {
+  DeviceBackend<CountingGpuLikeDevice, float> backend(integrator, &counts);
+  if (name) *name = backend.name();
+  backend.upload(scene);
+  u32 first = 0;
+  for (u32 count : passes) {
+    backend.render(first, count);
+    first += count;
+  }
+  EXPECT_TRUE(backend.device_seconds().has_value());
+  std::vector<FilmPixel> film;
+  backend.read_film(film);
+  return film;
+}
+
+FlatScene<float> small_tiny_scene() {
+  FlatScene<float> scene = test::tiny_reference_scene<float>(1, 7);
+  return scene;
+}
+
+TEST(DeviceLayer, GpuMegakernelPathLaunchesOneSampleAtATimeAndMatchesTheCpuBackend) {
+  const FlatScene<float> scene = small_tiny_scene();
+  CountingGpuLikeDevice::Counts counts;
+  std::string name;
+  const std::vector<FilmPixel> film = render_gpu_like(scene, Integrator::kAuto, {1, 2, 3}, counts, &name);
+  EXPECT_NE(name.find("wavefront"), std::string::npos) << "auto on a device that is not the host: " << name;
+  CountingGpuLikeDevice::Counts mega_counts;
+  const std::vector<FilmPixel> mega = render_gpu_like(scene, Integrator::kMegakernel, {1, 2, 3}, mega_counts);
+  EXPECT_EQ(mega_counts.image_launches, 6u);  // one launch per sample
+  EXPECT_EQ(mega_counts.item_launches, 0u);
+  EXPECT_GE(mega_counts.synchronisations, 3u);  // at least one batch per render call, each ending in a wait
+  EXPECT_TRUE(same_film(mega, test::render_film(scene, 2, {6})));
+  EXPECT_TRUE(same_film(film, mega)) << "the wavefront's GPU path against the megakernel's";
+}
+
+TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
+  const FlatScene<float> scene = small_tiny_scene();
+  CountingGpuLikeDevice::Counts counts;
+  const std::vector<FilmPixel> film = render_gpu_like(scene, Integrator::kWavefront, {2, 2}, counts);
+  EXPECT_EQ(counts.image_launches, 0u);
+  EXPECT_GT(counts.item_launches, 4u);      // generate, intersect, escaped, shade..., accumulate
+  EXPECT_EQ(counts.timers, counts.item_launches);  // every stage timed
+  EXPECT_TRUE(same_film(film, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
+  EXPECT_TRUE(same_film(film, test::render_film(scene, 2, {4}, Integrator::kMegakernel)));
+}
+
+}  // namespace
+}  // namespace pt
