@@ -23,15 +23,6 @@ bool same_bits(const LinearImage& a, const LinearImage& b) {
          std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)) == 0;
 }
 
-bool same_film(const std::vector<FilmPixel>& a, const std::vector<FilmPixel>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (std::memcmp(&a[i].r, &b[i].r, sizeof(double)) || std::memcmp(&a[i].g, &b[i].g, sizeof(double)) ||
-        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || a[i].samples != b[i].samples || a[i].rays != b[i].rays)
-      return false;
-  return true;
-}
-
 // An image that is flat or black would make any comparison pass: require real content.
 void expect_nontrivial(const LinearImage& image) {
   double lo = 1e30, hi = -1e30;
@@ -50,7 +41,7 @@ TEST(ImageIdenticalForAnyThreadCount, OneAndFourThreadsFloat) {
   EXPECT_TRUE(same_bits(one.image, four.image));
   EXPECT_EQ(one.stats.rays, four.stats.rays);
   EXPECT_EQ(one.stats.samples, 64u * 48u * 4u);
-  EXPECT_TRUE(same_film(test::render_film(scene, 1, {4}), test::render_film(scene, 4, {4})));
+  EXPECT_TRUE(test::same_film(test::render_film(scene, 1, {4}), test::render_film(scene, 4, {4})));
 }
 
 TEST(ImageIdenticalForAnyThreadCount, OneAndTwoThreadsDouble) {
@@ -64,9 +55,9 @@ TEST(ImageIdenticalForAnyThreadCount, OneAndTwoThreadsDouble) {
 TEST(ImageIdenticalForAnySplitIntoPasses, OnePassEqualsSeveralPasses) {
   const FlatScene<float> scene = tiny_scene<float>(8);
   const std::vector<FilmPixel> whole = test::render_film(scene, 2, {8});
-  EXPECT_TRUE(same_film(whole, test::render_film(scene, 2, {1, 3, 4})));
-  EXPECT_TRUE(same_film(whole, test::render_film(scene, 1, {1, 1, 1, 1, 1, 1, 1, 1})));
-  EXPECT_TRUE(same_film(whole, test::render_film(scene, 3, {5, 3})));
+  EXPECT_TRUE(test::same_film(whole, test::render_film(scene, 2, {1, 3, 4})));
+  EXPECT_TRUE(test::same_film(whole, test::render_film(scene, 1, {1, 1, 1, 1, 1, 1, 1, 1})));
+  EXPECT_TRUE(test::same_film(whole, test::render_film(scene, 3, {5, 3})));
   // render_scene picks its own passes; its image is the one-pass film resolved.
   const LinearImage resolved = resolve_film(whole, scene.params.width, scene.params.height);
   EXPECT_TRUE(same_bits(resolved, test::render(scene, 2).image));
@@ -81,30 +72,30 @@ TEST(ImageIdenticalForAnySplitIntoPasses, SamplesBeyondTheFirstPassAreNotRepeats
   backend->render(0, 4);
   std::vector<FilmPixel> repeated;
   backend->read_film(repeated);
-  EXPECT_FALSE(same_film(repeated, test::render_film(scene, 2, {4, 4})));
+  EXPECT_FALSE(test::same_film(repeated, test::render_film(scene, 2, {4, 4})));
   // Uploading clears the film.
   backend->upload(scene);
   backend->render(0, 8);
   std::vector<FilmPixel> fresh;
   backend->read_film(fresh);
-  EXPECT_TRUE(same_film(fresh, test::render_film(scene, 1, {8})));
+  EXPECT_TRUE(test::same_film(fresh, test::render_film(scene, 1, {8})));
 }
 
 TEST(ImageIdenticalForEitherIntegrator, WavefrontEqualsMegakernel) {
   // Both integrators run the same path steps with the same random numbers, so they compute the same samples.
   const FlatScene<float> scene = tiny_scene<float>(4);
   const std::vector<FilmPixel> megakernel = test::render_film(scene, 2, {4}, Integrator::kMegakernel);
-  EXPECT_TRUE(same_film(megakernel, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
+  EXPECT_TRUE(test::same_film(megakernel, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
   const FlatScene<double> scene_double = tiny_scene<double>(2);
-  EXPECT_TRUE(same_film(test::render_film(scene_double, 2, {2}, Integrator::kMegakernel),
+  EXPECT_TRUE(test::same_film(test::render_film(scene_double, 2, {2}, Integrator::kMegakernel),
                         test::render_film(scene_double, 2, {2}, Integrator::kWavefront)));
 }
 
 TEST(ImageIdenticalForEitherIntegrator, WavefrontIndependentOfThreadsAndPasses) {
   const FlatScene<float> scene = tiny_scene<float>(6);
   const std::vector<FilmPixel> whole = test::render_film(scene, 1, {6}, Integrator::kWavefront);
-  EXPECT_TRUE(same_film(whole, test::render_film(scene, 4, {6}, Integrator::kWavefront)));
-  EXPECT_TRUE(same_film(whole, test::render_film(scene, 2, {1, 2, 3}, Integrator::kWavefront)));
+  EXPECT_TRUE(test::same_film(whole, test::render_film(scene, 4, {6}, Integrator::kWavefront)));
+  EXPECT_TRUE(test::same_film(whole, test::render_film(scene, 2, {1, 2, 3}, Integrator::kWavefront)));
   EXPECT_TRUE(same_bits(resolve_film(whole, scene.params.width, scene.params.height), test::render(scene, 2, Integrator::kWavefront).image));
 }
 

@@ -61,15 +61,6 @@ class CountingGpuLikeDevice {
 };
 static_assert(Device<CountingGpuLikeDevice>);
 
-bool same_film(const std::vector<FilmPixel>& a, const std::vector<FilmPixel>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (std::memcmp(&a[i].r, &b[i].r, sizeof(double)) || std::memcmp(&a[i].g, &b[i].g, sizeof(double)) ||
-        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || a[i].samples != b[i].samples || a[i].rays != b[i].rays)
-      return false;
-  return true;
-}
-
 std::vector<FilmPixel> render_gpu_like(const FlatScene<float>& scene, Integrator integrator, const std::vector<u32>& passes,
                                        CountingGpuLikeDevice::Counts& counts, std::string* name = nullptr) {
   DeviceBackend<CountingGpuLikeDevice, float> backend(integrator, &counts);
@@ -102,8 +93,8 @@ TEST(DeviceLayer, GpuMegakernelPathLaunchesOneSampleAtATimeAndMatchesTheCpuBacke
   EXPECT_EQ(mega_counts.image_launches, 6u);  // one launch per sample
   EXPECT_EQ(mega_counts.item_launches, 0u);
   EXPECT_GE(mega_counts.synchronisations, 3u);  // at least one batch per render call, each ending in a wait
-  EXPECT_TRUE(same_film(mega, test::render_film(scene, 2, {6})));
-  EXPECT_TRUE(same_film(film, mega)) << "the wavefront's GPU path against the megakernel's";
+  EXPECT_TRUE(test::same_film(mega, test::render_film(scene, 2, {6})));
+  EXPECT_TRUE(test::same_film(film, mega)) << "the wavefront's GPU path against the megakernel's";
 }
 
 TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
@@ -113,8 +104,8 @@ TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
   EXPECT_EQ(counts.image_launches, 0u);
   EXPECT_GT(counts.item_launches, 4u);      // generate, intersect, escaped, shade..., accumulate
   EXPECT_EQ(counts.timers, counts.item_launches);  // every stage timed
-  EXPECT_TRUE(same_film(film, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
-  EXPECT_TRUE(same_film(film, test::render_film(scene, 2, {4}, Integrator::kMegakernel)));
+  EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
+  EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kMegakernel)));
 }
 
 }  // namespace

@@ -152,6 +152,16 @@ std::vector<FilmPixel> render_film(const FlatScene<T>& scene, unsigned threads, 
   return film;
 }
 
+// Whether two films hold the same sums bit for bit, and the same sample and ray counts.
+inline bool same_film(const std::vector<FilmPixel>& a, const std::vector<FilmPixel>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::memcmp(&a[i].r, &b[i].r, sizeof(double)) || std::memcmp(&a[i].g, &b[i].g, sizeof(double)) ||
+        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || a[i].samples != b[i].samples || a[i].rays != b[i].rays)
+      return false;
+  return true;
+}
+
 // Mean and variance (of one sample) of every pixel's finite samples, channel by channel, computed from the
 // individual samples of the integrator (the film only keeps sums).
 struct PixelStatistics {
