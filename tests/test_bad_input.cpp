@@ -424,6 +424,22 @@ TEST_F(CommandLineErrors, OutputFolderThatDoesNotExist) {
   expect_single_error(result, output.string() + ": cannot write the image");
 }
 
+TEST_F(CommandLineErrors, OutputFolderThatIsAFile) {
+  test::write_text_file(dir_ / "plain.txt", "a file\n");
+  inputs_.push_back("plain.txt");
+  const std::filesystem::path output = dir_ / "plain.txt" / "out.png";
+  const test::CommandResult result = render(scene_, "-o " + test::quoted(output));
+  expect_single_error(result, output.string() + ": cannot write the image: '" + (dir_ / "plain.txt").string() + "' is a file, not a folder");
+}
+
+TEST_F(CommandLineErrors, OutputPlaceIsCheckedBeforeAnyWork) {
+  // The scene is broken too: the output's error comes first, since it is found before the scene is even read.
+  test::write_text_file(scene_, "{ not json");
+  const std::filesystem::path output = dir_ / "no-such-folder" / "out.png";
+  const test::CommandResult result = render(scene_, "-o " + test::quoted(output));
+  expect_single_error(result, output.string() + ": cannot write the image: folder '" + (dir_ / "no-such-folder").string() + "' does not exist");
+}
+
 TEST_F(CommandLineErrors, ReadOnlyOutputLocation) {
   // A folder without write permission; where permissions do not bind (running as root) /proc, which refuses new
   // files to everyone.

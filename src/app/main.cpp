@@ -166,8 +166,9 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
 
 
 int run_render(const RenderOptions& options, Clock::time_point program_start) {
-  // Fail on an unusable output name before spending time on the render.
+  // Fail on an unusable output name or place before spending time on the render.
   image_format_for(options.output);
+  check_output_path(options.output);
   return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, program_start); });
 }
 

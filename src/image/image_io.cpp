@@ -1,6 +1,7 @@
 // Image files: stb reads 8-bit textures; PNG is written here through zlib, OpenEXR through its library, PFM plainly.
 #include "image/image_io.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <zlib.h>
@@ -199,13 +200,32 @@ void write_exr(const std::string& file, const LinearImage& image) {
 
 }  // namespace
 
-void write_image(const std::filesystem::path& path, const LinearImage& image) {
-  const ImageFormat format = image_format_for(path);
+void check_output_path(const std::filesystem::path& path) {
+  auto refuse = [&](const std::string& reason) {
+    throw InputError(fmt::format("{}: cannot write the image: {}", path.string(), reason));
+  };
   std::filesystem::path folder = path.parent_path();
   if (folder.empty()) folder = ".";
   std::error_code error;
-  if (!std::filesystem::is_directory(folder, error))
-    throw InputError(fmt::format("{}: cannot write the image: folder '{}' does not exist", path.string(), folder.string()));
+  const std::filesystem::file_status folder_status = std::filesystem::status(folder, error);
+  if (!std::filesystem::exists(folder_status)) refuse(fmt::format("folder '{}' does not exist", folder.string()));
+  if (!std::filesystem::is_directory(folder_status)) refuse(fmt::format("'{}' is a file, not a folder", folder.string()));
+  if (std::filesystem::is_directory(path, error)) refuse("it is a folder");
+  // A file of our own beside it, created and removed at once: the only sure test of permissions (and of a
+  // read-only file system).
+  const std::filesystem::path probe = folder / fmt::format(".{}.{}.probe", path.filename().string(), getpid());
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+  if (fd < 0) refuse(fmt::format("cannot create a file in '{}': {}", folder.string(), std::strerror(errno)));
+  ::close(fd);
+  std::filesystem::remove(probe, error);
+}
+
+void write_image(const std::filesystem::path& path, const LinearImage& image) {
+  const ImageFormat format = image_format_for(path);
+  check_output_path(path);  // again: the folder may have changed while the image was rendered
+  std::filesystem::path folder = path.parent_path();
+  if (folder.empty()) folder = ".";
+  std::error_code error;
   // The temporary keeps the final extension (OpenEXR does not care, but viewers of a stray file would) and a
   // name unique to this process.
   std::random_device entropy;

@@ -34,6 +34,11 @@ enum class ImageFormat { kPng, kPfm, kExr };
 // The format for a path's extension; throws InputError for an unknown one.
 ImageFormat image_format_for(const std::filesystem::path& path);
 
+// Checks, before any work is spent, that an image can be written at `path`: its folder exists and is a folder,
+// the path itself is not a folder, and a new file can be created beside it. Throws InputError
+// ("PATH: cannot write the image: REASON").
+void check_output_path(const std::filesystem::path& path);
+
 // Writes the image to a temporary file beside `path` and renames it into place, so a failure never leaves a
 // half-written file under the final name. PNG is 8-bit sRGB (values clamped); PFM and OpenEXR keep linear floats.
 // Throws InputError when the file cannot be written.
