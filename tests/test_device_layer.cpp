@@ -77,13 +77,8 @@ std::vector<FilmPixel> render_gpu_like(const FlatScene<float>& scene, Integrator
   return film;
 }
 
-FlatScene<float> small_tiny_scene() {
-  FlatScene<float> scene = test::tiny_reference_scene<float>(1, 7);
-  return scene;
-}
-
 TEST(DeviceLayer, GpuMegakernelPathLaunchesOneSampleAtATimeAndMatchesTheCpuBackend) {
-  const FlatScene<float> scene = small_tiny_scene();
+  const FlatScene<float> scene = test::tiny_reference_scene<float>(1, 7);
   CountingGpuLikeDevice::Counts counts;
   std::string name;
   const std::vector<FilmPixel> film = render_gpu_like(scene, Integrator::kAuto, {1, 2, 3}, counts, &name);
@@ -98,7 +93,7 @@ TEST(DeviceLayer, GpuMegakernelPathLaunchesOneSampleAtATimeAndMatchesTheCpuBacke
 }
 
 TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
-  const FlatScene<float> scene = small_tiny_scene();
+  const FlatScene<float> scene = test::tiny_reference_scene<float>(1, 7);
   CountingGpuLikeDevice::Counts counts;
   const std::vector<FilmPixel> film = render_gpu_like(scene, Integrator::kWavefront, {2, 2}, counts);
   EXPECT_EQ(counts.image_launches, 0u);
@@ -106,6 +101,20 @@ TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
   EXPECT_EQ(counts.timers, counts.item_launches);  // every stage timed
   EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
   EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kMegakernel)));
+}
+
+// The bytes a path costs in flight, derived from the field lists, are what the allocation takes per pool slot:
+// every array but the counters and the per-item results is sized by the pool.
+TEST(DeviceLayer, BytesPerPathMatchTheWavefrontAllocation) {
+  constexpr u32 kCapacity = 1000, kItems = 77;
+  WavefrontView<float> view{};
+  std::size_t per_slot_bytes = 0, other_bytes = 0;
+  view.for_each_array(kCapacity, kItems, [&](auto*& array, std::size_t entries) {
+    const std::size_t bytes = entries * sizeof(*array);
+    (entries == kCapacity ? per_slot_bytes : other_bytes) += bytes;
+  });
+  EXPECT_EQ(per_slot_bytes, std::size_t{kCapacity} * WavefrontView<float>::kBytesPerPath);
+  EXPECT_EQ(other_bytes, kWavefrontCounters * sizeof(u32) + kItems * sizeof(SampleResult<float>));
 }
 
 }  // namespace

@@ -117,7 +117,7 @@ PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 
 }
 
 // The megakernel as a kernel over the image: samples [first_sample, first_sample + sample_count) of pixel (x, y)
-// added to the film. GPUs launch it with one sample per launch (see the CUDA backend); host devices with many.
+// added to the film. GPUs launch it with one sample per launch, host devices with many (integrators/megakernel.hpp).
 template <class T>
 struct MegakernelPass {
   SceneView<T> scene;
