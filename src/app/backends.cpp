@@ -68,14 +68,6 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
   template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_backend<__VA_ARGS__>(const std::string&, unsigned, int, Integrator, int);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKEND)
 
-bool gpu_available() {
-#if PT_HAVE_CUDA
-  return cuda_device_count() > 0;
-#else
-  return false;
-#endif
-}
-
 void list_devices() {
   fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());
 #if PT_HAVE_CUDA

@@ -18,9 +18,6 @@ template <class T>
 std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device,
                                                Integrator integrator = Integrator::kMegakernel, int sycl_device = -1);
 
-// Whether a GPU backend is built and finds a usable device.
-bool gpu_available();
-
 // Prints every backend's devices to stdout.
 void list_devices();
 
