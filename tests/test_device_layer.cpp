@@ -27,6 +27,7 @@ class CountingGpuLikeDevice {
   std::string kind() const { return "gpu-like"; }
   std::string description() const { return "the CPU device, not the host"; }
   bool host() const { return false; }
+  Integrator preferred_integrator() const { return Integrator::kWavefront; }
   bool times_on_device() const { return true; }
   void* allocate(std::size_t bytes, const char* what) { return cpu_.allocate(bytes, what); }
   void release(void* pointer) { cpu_.release(pointer); }
@@ -82,7 +83,7 @@ TEST(DeviceLayer, GpuMegakernelPathLaunchesOneSampleAtATimeAndMatchesTheCpuBacke
   CountingGpuLikeDevice::Counts counts;
   std::string name;
   const std::vector<FilmPixel> film = render_gpu_like(scene, Integrator::kAuto, {1, 2, 3}, counts, &name);
-  EXPECT_NE(name.find("wavefront"), std::string::npos) << "auto on a device that is not the host: " << name;
+  EXPECT_NE(name.find("wavefront"), std::string::npos) << "auto takes the device's preferred integrator: " << name;
   CountingGpuLikeDevice::Counts mega_counts;
   const std::vector<FilmPixel> mega = render_gpu_like(scene, Integrator::kMegakernel, {1, 2, 3}, mega_counts);
   EXPECT_EQ(mega_counts.image_launches, 6u);  // one launch per sample
@@ -104,14 +105,15 @@ TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
 }
 
 // The bytes a path costs in flight, derived from the field lists, are what the allocation takes per pool slot:
-// every array but the counters and the per-item results is sized by the pool.
+// every array but the counters and the per-item results is sized by the pool (the material queues, one after
+// another, by a multiple of it).
 TEST(DeviceLayer, BytesPerPathMatchTheWavefrontAllocation) {
   constexpr u32 kCapacity = 1000, kItems = 77;
   WavefrontView<float> view{};
   std::size_t per_slot_bytes = 0, other_bytes = 0;
   view.for_each_array(kCapacity, kItems, [&](auto*& array, std::size_t entries) {
     const std::size_t bytes = entries * sizeof(*array);
-    (entries == kCapacity ? per_slot_bytes : other_bytes) += bytes;
+    (entries % kCapacity == 0 ? per_slot_bytes : other_bytes) += bytes;
   });
   EXPECT_EQ(per_slot_bytes, std::size_t{kCapacity} * WavefrontView<float>::kBytesPerPath);
   EXPECT_EQ(other_bytes, kWavefrontCounters * sizeof(u32) + kItems * sizeof(SampleResult<float>));

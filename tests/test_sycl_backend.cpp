@@ -175,6 +175,11 @@ TEST(SyclBackend, SelectedByName) {
   EXPECT_NE(wavefront->name().find("wavefront"), std::string::npos) << wavefront->name();
 }
 
+TEST(SyclBackend, AutoTakesTheMegakernelOnEveryDevice) {
+  const std::unique_ptr<RenderBackend<float>> backend = make_backend<float>("sycl", 0, 0, Integrator::kAuto, test_device());
+  EXPECT_NE(backend->name().find("megakernel"), std::string::npos) << backend->name();
+}
+
 #ifdef PT_PATHTRACER_BINARY
 TEST(SyclBackend, DevicesCommandListsSyclDevices) {
   FILE* pipe = popen(("'" + test::pathtracer_binary() + "' devices").c_str(), "r");

@@ -48,9 +48,9 @@ struct RenderOptions {
   u32 runs = 5;  // bench only
 };
 
-// "auto" lets the backend pick its device's faster integrator as measured in BENCHMARKS.md: the wavefront on GPUs
-// (about 2x on material-heavy scenes with CUDA), the megakernel on the host's processor (the wavefront's queues
-// cost more there than they save), whichever backend drives it.
+// "auto" lets the backend pick its device's faster integrator as measured in BENCHMARKS.md: the wavefront with
+// CUDA (about 2x on material-heavy scenes), the megakernel on the host's processor (the wavefront's queues cost
+// more there than they save) and with SYCL (its wavefront's intersect stage spills on GPUs).
 Integrator integrator_of(const RenderOptions& options) {
   if (options.integrator == "wavefront") return Integrator::kWavefront;
   if (options.integrator == "megakernel") return Integrator::kMegakernel;

@@ -53,7 +53,8 @@ inline u32 next_batch_samples(double seconds, u32 count, double target_seconds) 
 }
 
 // How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront); kAuto lets the
-// backend take its device's faster one (the wavefront on GPUs, the megakernel on the host: BENCHMARKS.md).
+// backend take the one its device names as its faster (the megakernel on CPUs and through SYCL, the wavefront
+// through CUDA: BENCHMARKS.md).
 enum class Integrator { kMegakernel, kWavefront, kAuto };
 
 }  // namespace pt

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "backends/backend.hpp"
 #include "kernel/platform.hpp"
 
 namespace pt {
@@ -42,6 +43,7 @@ concept Device = requires(D& device, const D& view, void* pointer, const void* s
   { view.kind() } -> std::convertible_to<std::string>;
   { view.description() } -> std::convertible_to<std::string>;
   { view.host() } -> std::convertible_to<bool>;
+  { view.preferred_integrator() } -> std::same_as<Integrator>;
   { view.times_on_device() } -> std::convertible_to<bool>;
   { device.allocate(bytes, what) } -> std::same_as<void*>;
   device.release(pointer);

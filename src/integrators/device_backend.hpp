@@ -22,7 +22,7 @@ class DeviceBackend final : public RenderBackend<T> {
   template <class... DeviceArguments>
   explicit DeviceBackend(Integrator integrator, DeviceArguments&&... arguments)
       : device_(std::forward<DeviceArguments>(arguments)...),
-        integrator_(integrator != Integrator::kAuto ? integrator : device_.host() ? Integrator::kMegakernel : Integrator::kWavefront) {}
+        integrator_(integrator != Integrator::kAuto ? integrator : device_.preferred_integrator()) {}
 
   std::string name() const override {
     return device_.kind() + " (" + device_.description() + ", " + (integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel") + ")";

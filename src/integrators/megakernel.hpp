@@ -20,19 +20,21 @@ class MegakernelIntegrator {
     const u32 width = scene_.params.width, height = scene_.params.height;
     u32 done = 0;
     while (done < sample_count) {
-      // On a GPU, batches of about a tenth of a second between synchronisations, of one sample per launch: a thread
-      // never loops over samples, so each launch starts its warps converged on a fresh sample (with a loop, later
-      // samples came out non-finite at a rate near 1e-5 on sm_90), and each launch stays far below any display
-      // watchdog's limit. On the host a launch costs a fork and join of the threads, and a pixel's samples traced
+      // On a GPU, batches of about a tenth of a second between synchronisations, of one sample per launch with a
+      // kernel that has no loop over samples (MegakernelSample says what went wrong with one), so each launch
+      // starts its warps converged on a fresh sample and stays far below any display watchdog's limit. On the host a launch costs a fork and join of the threads, and a pixel's samples traced
       // back to back share the caches (passes of a sample or two over the whole image were 4 % slower), so one
       // launch takes every sample of the call, each pixel's in order: the same sums either way.
       const bool host = device_.host();
       const u32 count = host ? sample_count - done : std::min(samples_per_batch_, sample_count - done);
-      const u32 per_launch = host ? count : 1;
       const double before = seconds_;
       const typename D::Timer timer = device_.start_timer();
-      for (u32 s = first_sample + done; s < first_sample + done + count; s += per_launch)
-        device_.launch_image("launching the render kernel", width, height, MegakernelPass<T>{scene_, film_, s, per_launch});
+      if (host) {
+        device_.launch_image("launching the render kernel", width, height, MegakernelPass<T>{scene_, film_, first_sample + done, count});
+      } else {
+        for (u32 s = first_sample + done; s < first_sample + done + count; ++s)
+          device_.launch_image("launching the render kernel", width, height, MegakernelSample<T>{scene_, film_, s});
+      }
       device_.stop_timer(timer, &seconds_);
       device_.synchronise("running the render kernel");
       done += count;

@@ -116,8 +116,8 @@ PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 
   pixel = sum;
 }
 
-// The megakernel as a kernel over the image: samples [first_sample, first_sample + sample_count) of pixel (x, y)
-// added to the film. GPUs launch it with one sample per launch, host devices with many (integrators/megakernel.hpp).
+// The megakernel on host devices, a kernel over the image: samples [first_sample, first_sample + sample_count) of
+// pixel (x, y) added to the film.
 template <class T>
 struct MegakernelPass {
   SceneView<T> scene;
@@ -125,6 +125,25 @@ struct MegakernelPass {
   u32 first_sample, sample_count;
   PT_HD void operator()(u32 x, u32 y) const {
     accumulate_pixel(scene, x, y, first_sample, sample_count, film[static_cast<std::size_t>(y) * scene.params.width + x]);
+  }
+};
+
+// The megakernel on GPUs: one sample of pixel (x, y) added to the film, with no loop over samples in the kernel.
+// The same sums as MegakernelPass with a count of one. With that loop around the bounce loop and the BVH walk
+// (a trip count of one, known only at run time), the code made for NVIDIA GPUs went wrong in rare warps: through
+// AdaptiveCpp and LLVM, one warp of book-1's sample 55 at 1200x800 never ended (17 of its 32 lanes, whose paths
+// end after 2 to 17 bounces when traced alone); through nvcc, samples after a thread's first came out non-finite
+// at a rate near 1e-5 (docs/backends.md, docs/cuda-notes.md).
+template <class T>
+struct MegakernelSample {
+  SceneView<T> scene;
+  FilmPixel* film;
+  u32 sample;
+  PT_HD void operator()(u32 x, u32 y) const {
+    FilmPixel& pixel = film[static_cast<std::size_t>(y) * scene.params.width + x];
+    FilmPixel sum = pixel;
+    add_sample(sum, trace_sample(scene, x, y, sample));
+    pixel = sum;
   }
 };
 

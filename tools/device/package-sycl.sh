@@ -36,7 +36,7 @@ mkdir -p "$out/bin" "$out/lib" "$out/libexec"
 
 # Programs.
 cp "$build/pathtracer" "$out/bin/"
-for t in "$build/tests/pt_tests" "$build/tests/pt_fixed_point_tests"; do
+for t in "$build/tests/pt_tests" "$build/tests/pt_fixed_point_tests" "$build/pt_sycl_path_probe"; do
   if [ -x "$t" ]; then cp "$t" "$out/bin/"; fi
 done
 # The SYCL backend library, wherever the build put it (the loader's answer first).

@@ -5,7 +5,7 @@
 # command to image. The JIT cache is kept in $PT_SYCL_CACHE_DIR (default /tmp/pt-sycl-cache) and warmed before any
 # timing. CUDA_BINARY (default out/cuda-bin/pathtracer) is a CUDA build for the comparison; it loads its libraries
 # from the SYCL package. Logs go to $OUT.
-# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time] [hang]   (all but hang when no argument is given)
+# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time] [hang] [probe] [profile]   (check sanitize bench time when no argument is given)
 set -uo pipefail
 OUT="${OUT:-/tmp/pt-out}"
 mkdir -p "$OUT"
@@ -36,8 +36,8 @@ echo "SYCL GPU device: ${gpu:-none}"
 [ -n "$gpu" ] || exit 1
 
 if [[ $steps == *check* ]]; then
-  echo "== test suite (SYCL cases on the GPU: PT_SYCL_TEST_DEVICE=$gpu)"
-  PT_SYCL_TEST_DEVICE=$gpu timeout 540 "$root/sycl-device/bin/pt_tests" --gtest_brief=1 --gtest_filter='*Sycl*:*sycl*' >"$OUT/sycl-tests.log" 2>&1
+  echo "== test suite (SYCL cases on the GPU: PT_TEST_SYCL_DEVICE=$gpu)"
+  PT_TEST_SYCL_DEVICE=$gpu timeout 540 "$root/sycl-device/bin/pt_tests" --gtest_brief=1 --gtest_filter='*Sycl*:*sycl*' >"$OUT/sycl-tests.log" 2>&1
   echo "pt_tests exit $?"; grep -E "PASSED|FAILED|tests ran" "$OUT/sycl-tests.log" | tail -8
   grep -E "rmse|RMSE" "$OUT/sycl-tests.log" | head -20
 fi
@@ -55,8 +55,8 @@ if [[ $steps == *sanitize* ]]; then
   done
 fi
 
-median() {  # binary, backend arguments..., scene arguments...: the median seconds of bench
-  "$@" --runs 3 2>/dev/null | grep -oE 'median of [0-9]+: [0-9.]+ s' | awk '{print $4}'
+median() {  # binary, backend arguments..., scene arguments...: the median seconds of bench (none past 120 s)
+  timeout 120 "$@" --runs 3 2>/dev/null | grep -oE 'median of [0-9]+: [0-9.]+ s' | awk '{print $4}'
 }
 if [[ $steps == *bench* ]]; then
   echo "== SYCL against CUDA, side by side (CUDA, SYCL, SYCL, CUDA per line; bench medians, device-event timing)"
@@ -105,4 +105,27 @@ if [[ $steps == *hang* ]]; then
   wait
   echo "dispatches logged: $(grep -c 'inorder_executor: Dispatching' "$SCRATCH/limited.log")"
   grep -v ptx90 "$SCRATCH/limited.log" | tail -3 | cut -c1-200
+fi
+
+if [[ $steps == *probe* ]]; then
+  echo "== the megakernel launches that do not end, found and traced (book-1 1200x800; tools/sycl/path_probe.cpp)"
+  PROBE="$root/sycl-device/bin/pt_sycl_path_probe"
+  timeout 300 "$PROBE" find "$repo/scenes/book1-final.json" 1200 800 0 99 5 >"$OUT/probe-find.log" 2>&1
+  echo "find: exit $?"; grep -v "^stuck" "$OUT/probe-find.log" | tail -4; grep -c "^stuck" "$OUT/probe-find.log"
+  grep "^stuck" "$OUT/probe-find.log" | head -6 | while read -r _ x y s; do
+    timeout 60 "$PROBE" trace "$repo/scenes/book1-final.json" 1200 800 "$x" "$y" "$s" 5 >"$OUT/probe-trace-$x-$y-$s.log" 2>&1
+    echo "trace $x $y sample $s: exit $?"
+  done
+fi
+
+if [[ $steps == *profile* ]]; then
+  echo "== the wavefront's intersect stage, CUDA against SYCL (Nsight Compute; seed default 1920x1080, 4 spp, third launch)"
+  for backend in cuda sycl; do
+    binary=$PT; extra=(--sycl-device "$gpu"); [ $backend = cuda ] && binary=$CUDA_PT && extra=()
+    ncu --kernel-name-base mangled --kernel-name regex:WavefrontIntersect --launch-skip 2 --launch-count 1 --section SpeedOfLight \
+      --section Occupancy --section LaunchStats --section WarpStateStats --section MemoryWorkloadAnalysis "$binary" render "$repo/scenes/seed-default.json" \
+      --backend $backend "${extra[@]}" --integrator wavefront --width 1920 --height 1080 --spp 4 -q -o "$SCRATCH/ncu.pfm" >"$OUT/ncu-intersect-$backend.txt" 2>&1
+    echo "-- $backend"
+    grep -E "^  [A-Za-z_].*\(|Duration|Registers Per|Achieved Occupancy|Theoretical Occupancy|Block Limit Registers|Compute \(SM\) Throughput|Memory Throughput|L1/TEX Hit|L2 Hit|Warp Cycles Per Issued|Local Memory|Executed Ipc" "$OUT/ncu-intersect-$backend.txt" | cut -c1-110 | head -16
+  done
 fi

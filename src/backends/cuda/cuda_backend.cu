@@ -64,6 +64,8 @@ class CudaDevice {
     return "GPU " + std::to_string(index_) + ": " + properties_.name + ", " + std::to_string(properties_.multiProcessorCount) + " SMs";
   }
   bool host() const { return false; }
+  // What `auto` takes here: through nvcc the wavefront is the faster on the H200 (BENCHMARKS.md).
+  Integrator preferred_integrator() const { return Integrator::kWavefront; }
   bool times_on_device() const { return true; }
 
   void* allocate(std::size_t bytes, const char* what) {

@@ -99,6 +99,10 @@ class SyclDevice {
     return fmt::format("device {}: {}", index_ < 0 ? std::string("default") : std::to_string(index_), description_);
   }
   bool host() const { return host_; }
+  // What `auto` takes here: the megakernel, on the host and on GPUs alike. On the H200 through AdaptiveCpp the
+  // megakernel was the faster on every benchmark scene (its wavefront's intersect stage runs 4x slower than nvcc's;
+  // docs/backends.md).
+  Integrator preferred_integrator() const { return Integrator::kMegakernel; }
   bool times_on_device() const { return profiling_; }
 
   void* allocate(std::size_t bytes, const char* what) {
