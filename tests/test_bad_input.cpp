@@ -381,14 +381,13 @@ TEST(SceneFileErrors, FifoGivenAsSceneFileIsRefusedWithoutBlocking) {
 }
 
 TEST(SceneFileErrors, DeviceGivenAsSceneFileIsRefused) {
-  // /dev/null reads as empty and /dev/zero never ends: both are refused for what they are, before any read.
-  for (const char* device : {"/dev/null", "/dev/zero"}) {
-    try {
-      load_scene_file(device);
-      FAIL() << "accepted " << device;
-    } catch (const InputError& e) {
-      EXPECT_EQ(std::string(e.what()), std::string(device) + ": is a character device, not a scene file");
-    }
+  // /dev/null would read as an empty text; it is refused for what it is, before any read. (/dev/zero, which never
+  // ends, is tried through the program, under a memory limit: CommandLineErrors.EndlessDeviceAsSceneIsRefusedAtOnce.)
+  try {
+    load_scene_file("/dev/null");
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "/dev/null: is a character device, not a scene file");
   }
 }
 

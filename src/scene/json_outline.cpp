@@ -77,7 +77,10 @@ class OutlineBuilder {
   // The JSON path of the value being read.
   std::string pointer() const {
     std::string p;
-    for (const Frame& f : frames_) p += "/" + (f.is_array ? std::to_string(f.index) : escape_pointer_token(f.key));
+    for (const Frame& f : frames_) {
+      p += '/';
+      p += f.is_array ? std::to_string(f.index) : escape_pointer_token(f.key);
+    }
     return p.empty() ? "(top level)" : p;
   }
 
