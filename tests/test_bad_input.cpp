@@ -1,12 +1,19 @@
 // Checks that bad input gets one clear error naming file, JSON path and line:column, and that then no image is written.
 //
 // Scene texts go through the parser; a few cases also through the command-line program.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <functional>
+#include <future>
 #include <string>
 #include <vector>
 
+#include "image/image_io.hpp"
 #include "scene/json_positions.hpp"
 #include "test_support.hpp"
 
@@ -82,6 +89,13 @@ std::vector<BadScene> bad_scenes() {
        with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [0.5, "x", 0.5]}})"), "/objects/1/material/albedo/1",
        "expected a number, found a string", R"(^"x")"},
       {"WidthIsFractional", with("\"width\": 8", "\"width\": 8.5"), "/render/width", "expected an integer, found a fractional number", "^8.5"},
+      // An integer too large for 64 bits reaches the reader as a double: it is out of range, not fractional.
+      {"IntegerBeyond64BitsIsOutOfRange", with("\"width\": 8", "\"width\": 18446744073709551616"), "/render/width",
+       "18446744073709551616 is outside the allowed range [1, 16384]", "^18446744073709551616", "fractional"},
+      {"NumberOverflowIsLocated", with_object(sphere + R"("radius": 1e999, "material": "white"})"), "/objects/1/radius",
+       "the number 1e999 is beyond the range of a double", "^1e999"},
+      {"NegativeNumberOverflowIsLocated", with("\"vertical_fov\": 40", "\"vertical_fov\": -1e999"), "/camera/vertical_fov",
+       "the number -1e999 is beyond the range of a double", "^-1e999"},
       {"ObjectsIsAnObject", R"({"camera": {"look_from": [0, 0, 3], "look_at": [0, 0, 0], "vertical_fov": 40},
  "objects": {}})",
        "/objects", "expected an array, found an object", R"("objects": ^{})"},
@@ -225,9 +239,9 @@ TEST(BadSceneIsRejectedGuard, PositionsAreExactInAHandCountedCase) {
   }
 }
 
-TEST(NumberOverflow, LiteralBeyondDoubleRangeIsAnInputErrorNamingTheFile) {
-  // JSON has no NaN or infinity; 1e999 overflows a double and must not become an infinite radius. nlohmann reports
-  // the overflow without a position, so the message has the file but no line:column.
+TEST(NumberOverflow, LiteralBeyondDoubleRangeIsAnInputErrorNamingFileLineColumnAndPath) {
+  // JSON has no NaN or infinity; 1e999 overflows a double and must not become an infinite radius. The parser stops
+  // at the number, so the message points at it like any other bad value.
   for (const char* literal : {"1e999", "-1e999"}) {
     const std::string text = with_object(std::string(R"({"type": "sphere", "center": [2, 0, 0], "radius": )") + literal + R"(, "material": "white"})");
     try {
@@ -235,7 +249,7 @@ TEST(NumberOverflow, LiteralBeyondDoubleRangeIsAnInputErrorNamingTheFile) {
       FAIL() << "accepted " << literal;
     } catch (const InputError& e) {
       const std::string message = e.what();
-      EXPECT_EQ(message.rfind(kSource + ": invalid JSON: ", 0), 0u) << message;
+      EXPECT_EQ(message.rfind(kSource + ":8:55: /objects/1/radius: ", 0), 0u) << message;
       EXPECT_NE(message.find(literal), std::string::npos) << message;
     } catch (const std::exception& e) {
       FAIL() << "not an InputError: " << e.what();
@@ -258,7 +272,124 @@ TEST(JsonPointerEscaping, KeysWithSlashAreEscapedAndPositioned) {
   }
 }
 
+// The parser's cost is bounded by its input: nesting beyond the limit is refused where it starts, before anything
+// is built for it (100,000 levels used to take over a minute and gigabytes).
+TEST(ParserBounds, NestingBeyondTheLimitIsRefusedWithFileLineAndColumn) {
+  const std::size_t depth = 2000;
+  const std::string text = R"({"render": )" + std::string(depth, '[') + std::string(depth, ']') + "}";
+  try {
+    test::parse(text, kSource);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    // The top-level object and 255 arrays are the 256 levels allowed; the next '[' (column 12 + 255) is refused.
+    EXPECT_EQ(std::string(e.what()), kSource + ":1:267: invalid JSON: arrays and objects nested more than 256 deep");
+  }
+}
+
+TEST(ParserBounds, NestingAtTheLimitIsParsed) {
+  // 256 levels in all: past the syntax check, to the reader, which finds an unknown key.
+  const std::string text = R"({"render": )" + std::string(255, '[') + std::string(255, ']') + "}";
+  try {
+    test::parse(text, kSource);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), kSource + ":1:12: /render: expected an object, found an array");
+  }
+}
+
+TEST(ParserBounds, AnEntryWithTooManyValuesIsRefusedWhereTheLimitIsPassed) {
+  // One object whose centre has 200,000 numbers: refused at the first value past the limit, with its path (the
+  // object, its type and the array are three values, so number 99997 is the 100,001st).
+  std::string numbers;
+  for (int i = 0; i < 200000; ++i) numbers += i ? ", 0" : "0";
+  const std::string text = with_object(R"({"type": "sphere", "center": [)" + numbers + R"(], "radius": 1, "material": "white"})");
+  try {
+    test::parse(text, kSource);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind(kSource + ":8:", 0), 0u) << message.substr(0, 200);
+    EXPECT_NE(message.find("/objects/1/center/99997: more than 100000 JSON values in one entry of a list"), std::string::npos) << message.substr(0, 200);
+  }
+}
+
+TEST(ParserBounds, ErrorsInLaterListEntriesAreLocatedAsBefore) {
+  // Entries of the object, material and texture lists are read one at a time from their text; a key given twice
+  // keeps its last value, and errors name the right line and column.
+  const std::string text = with(R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]})",
+                                R"("white": {"type": "metal", "albedo": [1, 1, 1]},
+    "white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8], "fuzz": 1})");
+  try {
+    test::parse(text, kSource);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    const TextPosition at = position_of(text, R"("fuzz": ^1)");
+    EXPECT_EQ(std::string(e.what()), kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) +
+                                         ": /materials/white/fuzz: unknown key 'fuzz'");
+  }
+}
+
+// A scene cannot forge output lines or terminal escapes: control characters it puts into a message are escaped.
+TEST(MessagesAreOneLine, ControlCharactersFromTheSceneAreEscaped) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": "white", "x\nwarning: forged": 1})"),
+       R"(/objects/1/x\nwarning: forged: unknown key 'x\nwarning: forged')"},
+      {with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": "\u001b[31mred\r\t\u007f"})"),
+       R"(unknown material '\x1b[31mred\r\t\x7f')"},
+      {with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": "a\u009bb"})"), R"(unknown material 'a\u009bb')"},
+  };
+  for (const auto& [text, expected] : cases) {
+    try {
+      test::parse(text, kSource);
+      FAIL() << "accepted";
+    } catch (const InputError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find(expected), std::string::npos) << message;
+      EXPECT_TRUE(std::none_of(message.begin(), message.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+          << message;
+      EXPECT_EQ(message.find("\xc2\x9b"), std::string::npos) << message;
+    }
+  }
+}
+
 // ---- files ----
+
+// Runs `load` on another thread; should it block (on a FIFO), opens the FIFO's other end so that it returns, and
+// fails the test. Returns the message of the InputError it threw.
+std::string error_without_blocking(const std::filesystem::path& fifo, const std::function<void()>& load) {
+  auto result = std::async(std::launch::async, [&]() -> std::string {
+    try {
+      load();
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "(accepted)";
+  });
+  if (result.wait_for(std::chrono::seconds(10)) == std::future_status::timeout) {
+    ADD_FAILURE() << "blocked on " << fifo;
+    const int writer = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (writer >= 0) ::close(writer);
+  }
+  return result.get();
+}
+
+TEST(SceneFileErrors, FifoGivenAsSceneFileIsRefusedWithoutBlocking) {
+  test::TempDir dir;
+  const std::filesystem::path fifo = dir / "scene.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_EQ(error_without_blocking(fifo, [&] { load_scene_file(fifo); }), fifo.string() + ": is a FIFO (named pipe), not a scene file");
+}
+
+TEST(SceneFileErrors, DeviceGivenAsSceneFileIsRefused) {
+  // /dev/null would read as an empty text; it is refused for what it is, before any read. (/dev/zero, which never
+  // ends, is tried through the program, under a memory limit: CommandLineErrors.EndlessDeviceAsSceneIsRefusedAtOnce.)
+  try {
+    load_scene_file("/dev/null");
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "/dev/null: is a character device, not a scene file");
+  }
+}
 
 TEST(SceneFileErrors, MissingSceneFileIsNamed) {
   test::TempDir dir;
@@ -339,6 +470,64 @@ TEST(SceneFileErrors, FileThatIsNotAnImageIsRejected) {
   }
 }
 
+TEST(SceneFileErrors, FifoGivenAsImageIsRefusedWithoutBlocking) {
+  test::TempDir dir;
+  ASSERT_EQ(::mkfifo((dir / "pipe.png").c_str(), 0600), 0);
+  const std::filesystem::path file = scene_with_image(dir, "pipe.png");
+  const std::string message = error_without_blocking(dir / "pipe.png", [&] { load_scene_file(file); });
+  EXPECT_EQ(message.rfind(file.string() + ":4:", 0), 0u) << message;
+  EXPECT_NE(message.find("/textures/grid/file: cannot read image file '"), std::string::npos) << message;
+  EXPECT_NE(message.find("pipe.png': it is a FIFO (named pipe), not a regular file"), std::string::npos) << message;
+}
+
+TEST(SceneFileErrors, DeviceGivenAsImageIsRefused) {
+  test::TempDir dir;
+  const std::filesystem::path file = scene_with_image(dir, "/dev/zero");
+  try {
+    load_scene_file(file);
+    FAIL();
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind(file.string() + ":4:", 0), 0u) << message;
+    EXPECT_NE(message.find("cannot read image file '/dev/zero': it is a character device, not a regular file"), std::string::npos) << message;
+  }
+}
+
+// A PNG of only a header (signature and IHDR chunk; stb_image checks no CRC) claiming `width` x `height` RGB texels.
+void write_png_header(const std::filesystem::path& path, u32 width, u32 height) {
+  std::string bytes = "\x89PNG\r\n\x1a\n";
+  const auto big_endian = [&](u32 v) {
+    for (int shift = 24; shift >= 0; shift -= 8) bytes += static_cast<char>((v >> shift) & 0xff);
+  };
+  big_endian(13);
+  bytes += "IHDR";
+  big_endian(width);
+  big_endian(height);
+  bytes += std::string("\x08\x02\x00\x00\x00", 5);  // 8 bits, RGB, deflate, no filter variant, no interlace
+  big_endian(0);                                        // CRC
+  test::write_text_file(path, bytes);
+}
+
+TEST(SceneFileErrors, ImageSizeIsCheckedFromTheHeaderBeforeDecoding) {
+  // 20000x20000 exceeds stb_image's own limit (once called an "unknown image type"); 16384x16384 passes it but
+  // would decode to gigabytes; 9000x8000 is within each side but over the texel count.
+  for (const auto& [width, height] : std::vector<std::pair<u32, u32>>{{20000, 20000}, {16384, 16384}, {16385, 1}, {9000, 8000}}) {
+    test::TempDir dir;
+    write_png_header(dir / "huge.png", width, height);
+    const std::filesystem::path file = scene_with_image(dir, "huge.png");
+    try {
+      load_scene_file(file);
+      FAIL() << width << "x" << height << " accepted";
+    } catch (const InputError& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.rfind(file.string() + ":4:", 0), 0u) << message;
+      EXPECT_NE(message.find("huge.png' is " + std::to_string(width) + "x" + std::to_string(height) + " texels, larger than a texture may be"),
+                std::string::npos)
+          << message;
+    }
+  }
+}
+
 // ---- the command-line program ----
 
 class CommandLineErrors : public ::testing::Test {
@@ -402,7 +591,22 @@ TEST_F(CommandLineErrors, InvalidValueNamesFilePositionAndPath) {
 TEST_F(CommandLineErrors, NumberOverflowIsRejectedWithoutOutput) {
   test::write_text_file(scene_, with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e999, "material": "white"})"));
   const test::CommandResult result = render(scene_, "-o " + test::quoted(dir_ / "out.png"));
-  expect_single_error(result, scene_.string() + ": invalid JSON: ");
+  expect_single_error(result, scene_.string() + ":8:55: /objects/1/radius: the number 1e999 is beyond the range of a double");
+}
+
+TEST_F(CommandLineErrors, EndlessDeviceAsSceneIsRefusedAtOnce) {
+  // Guarded: should /dev/zero be read, the memory limit and the timeout end the program instead of the machine
+  // (no memory limit under AddressSanitizer, which reserves terabytes of address space).
+  const std::filesystem::path err = dir_ / "stderr.txt";
+  const std::string limit = PT_TEST_SANITIZED ? "" : "ulimit -v 4000000; ";
+  const std::string command = limit + "timeout 20 '" + test::pathtracer_binary() + "' render /dev/zero -q -o " +
+                              test::quoted(dir_ / "out.png") + " > /dev/null 2> " + test::quoted(err);
+  const int status = std::system(command.c_str());
+  const std::string message = test::read_text_file(err);
+  std::filesystem::remove(err);
+  EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 1) << message;
+  EXPECT_EQ(message, "pathtracer: error: /dev/zero: is a character device, not a scene file\n");
+  EXPECT_EQ(dir_.entries(), inputs_);
 }
 
 TEST_F(CommandLineErrors, MissingSceneFileIsNamed) {

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <string>
 #include <thread>
@@ -25,6 +26,7 @@
 #include <stb/stb_image.h>
 
 #include "base/errors.hpp"
+#include "base/input_file.hpp"
 #include "base/parallel_loop.hpp"
 
 namespace pt {
@@ -37,17 +39,53 @@ float linear_to_srgb(float c) {
   return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
 }
 
+namespace {
+
+// A PNG's size from its header (the signature, then the IHDR chunk: length, type, width, height, big-endian), read
+// here because stb_image's own header check refuses very large PNGs without saying their size.
+bool png_header_size(int fd, u64& width, u64& height) {
+  unsigned char header[24];
+  if (::pread(fd, header, sizeof header, 0) != static_cast<ssize_t>(sizeof header)) return false;
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (std::memcmp(header, kSignature, 8) != 0 || std::memcmp(header + 12, "IHDR", 4) != 0) return false;
+  const auto big_endian = [&](int at) { return (u64{header[at]} << 24) | (u64{header[at + 1]} << 16) | (u64{header[at + 2]} << 8) | header[at + 3]; };
+  width = big_endian(16);
+  height = big_endian(20);
+  return true;
+}
+
+void check_texture_size(const std::filesystem::path& path, u64 width, u64 height) {
+  if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxTextureTexels)
+    throw InputError(fmt::format("image file '{}' is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
+                                 "see docs/scene-format.md)",
+                                 path.string(), width, height, kMaxTextureSide, kMaxTextureTexels));
+}
+
+}  // namespace
+
 TextureImage read_texture_image(const std::filesystem::path& path) {
+  InputFile input = InputFile::open(path);
+  switch (input.problem()) {
+    case InputFile::Problem::kNone: break;
+    case InputFile::Problem::kMissing: throw InputError(fmt::format("image file '{}' does not exist", path.string()));
+    case InputFile::Problem::kFolder: throw InputError(fmt::format("cannot read image file '{}': it is a folder, not a file", path.string()));
+    case InputFile::Problem::kNotRegular: throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
+    case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), input.reason()));
+  }
+  // The size is checked from the header, before anything is decoded: a small file can claim an image of gigabytes.
+  u64 png_width = 0, png_height = 0;
+  if (png_header_size(input.descriptor(), png_width, png_height)) check_texture_size(path, png_width, png_height);
+  std::FILE* file = ::fdopen(input.descriptor(), "rb");
+  if (!file) throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), std::strerror(errno)));
+  input.release();
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> owned(file, &std::fclose);
   int width = 0, height = 0, channels = 0;
-  if (!stbi_info(path.c_str(), &width, &height, &channels)) {
-    std::error_code error;
-    if (!std::filesystem::exists(path, error)) throw InputError(fmt::format("image file '{}' does not exist", path.string()));
+  if (!stbi_info_from_file(file, &width, &height, &channels)) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), reason ? reason : "unknown format"));
   }
-  if (width <= 0 || height <= 0 || width > 65536 || height > 65536 || static_cast<u64>(width) * height > (1ull << 28))
-    throw InputError(fmt::format("image file '{}' has an unsupported size {}x{}", path.string(), width, height));
-  unsigned char* pixels = stbi_load(path.c_str(), &width, &height, &channels, 3);
+  check_texture_size(path, static_cast<u64>(width), static_cast<u64>(height));
+  unsigned char* pixels = stbi_load_from_file(file, &width, &height, &channels, 3);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot decode image file '{}': {}", path.string(), reason ? reason : "unknown error"));

@@ -22,7 +22,13 @@ struct TextureImage {
   std::vector<u8> srgb;
 };
 
-// Reads an 8-bit image (PNG, JPEG, BMP, TGA, ...). Throws InputError.
+// The largest texture: its size is checked from the file's header before it is decoded, so that a small file
+// claiming a huge image costs nothing. 2^26 texels are 192 MiB as stored (three bytes each), an 8192x8192 image.
+inline constexpr u64 kMaxTextureSide = 16384;
+inline constexpr u64 kMaxTextureTexels = u64{1} << 26;
+
+// Reads an 8-bit image (PNG, JPEG, BMP, TGA, ...) from a regular file, at most kMaxTextureSide on a side and
+// kMaxTextureTexels in all. Throws InputError.
 TextureImage read_texture_image(const std::filesystem::path& path);
 
 // The linear value of each sRGB byte: srgb_to_linear(i / 255).

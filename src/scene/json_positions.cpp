@@ -1,46 +1,15 @@
-// Records the text offset of every JSON value by running nlohmann's SAX parser over an input that counts the
-// characters the lexer has consumed.
+// Finds one value of a JSON text by its pointer: nlohmann's SAX parser runs over the text while a stack of the
+// enclosing arrays and objects says how much of the pointer the current place matches.
 #include "scene/json_positions.hpp"
 
-#include <iterator>
+#include <cstdint>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "scene/json_scan.hpp"
+
 namespace pt {
-
-namespace {
-
-// A character iterator that tells a shared counter how far the lexer has read.
-class CountingIterator {
- public:
-  using iterator_category = std::input_iterator_tag;
-  using value_type = char;
-  using difference_type = std::ptrdiff_t;
-  using pointer = const char*;
-  using reference = const char&;
-
-  CountingIterator(const char* p, std::size_t* consumed) : p_(p), consumed_(consumed) {}
-  reference operator*() const { return *p_; }
-  CountingIterator& operator++() {
-    ++p_;
-    ++*consumed_;
-    return *this;
-  }
-  CountingIterator operator++(int) {
-    CountingIterator old = *this;
-    ++*this;
-    return old;
-  }
-  bool operator==(const CountingIterator& o) const { return p_ == o.p_; }
-  bool operator!=(const CountingIterator& o) const { return p_ != o.p_; }
-
- private:
-  const char* p_;
-  std::size_t* consumed_;
-};
-
-}  // namespace
 
 std::string escape_pointer_token(const std::string& token) {
   std::string out;
@@ -54,35 +23,56 @@ std::string escape_pointer_token(const std::string& token) {
 
 namespace {
 
-class PositionRecorder : public nlohmann::json_sax<nlohmann::json> {
- public:
-  PositionRecorder(const std::size_t* consumed, std::unordered_map<std::string, std::size_t>* offsets, std::string_view text)
-      : consumed_(consumed), offsets_(offsets), text_(text) {}
+// The pointer's tokens with their escapes undone ("/a~1b/0" -> {"a/b", "0"}).
+std::vector<std::string> pointer_tokens(const std::string& pointer) {
+  std::vector<std::string> tokens;
+  for (std::size_t i = 0; i < pointer.size();) {
+    // Every token follows a '/'; a pointer that does not start with one names no value (handled by the caller).
+    std::size_t next = pointer.find('/', i + 1);
+    if (next == std::string::npos) next = pointer.size();
+    std::string token;
+    for (std::size_t j = i + 1; j < next; ++j) {
+      if (pointer[j] == '~' && j + 1 < next && (pointer[j + 1] == '0' || pointer[j + 1] == '1')) {
+        token += pointer[j + 1] == '0' ? '~' : '/';
+        ++j;
+      } else {
+        token += pointer[j];
+      }
+    }
+    tokens.push_back(std::move(token));
+    i = next;
+  }
+  return tokens;
+}
 
-  bool null() override { return value(); }
-  bool boolean(bool) override { return value(); }
-  bool number_integer(number_integer_t) override { return value(); }
-  bool number_unsigned(number_unsigned_t) override { return value(); }
-  bool number_float(number_float_t, const string_t&) override { return value(); }
-  bool string(string_t&) override { return value(); }
-  bool binary(binary_t&) override { return value(); }
-  bool start_object(std::size_t) override {
-    record(start_of_token('{'));
-    frames_.push_back({false, 0, {}});
+// Follows the SAX events; `matched` counts the enclosing containers, from the outside, whose current key or index
+// equals the pointer's token at that depth, so each event costs O(1) beyond reading the key.
+class ValueFinder {
+ public:
+  ValueFinder(std::string_view text, const std::size_t* consumed, std::vector<std::string> tokens)
+      : text_(text), consumed_(consumed), tokens_(std::move(tokens)) {}
+
+  std::optional<std::size_t> found() const { return found_; }
+
+  bool null() { return scalar(); }
+  bool boolean(bool) { return scalar(); }
+  bool number_integer(std::int64_t) { return scalar(); }
+  bool number_unsigned(std::uint64_t) { return scalar(); }
+  bool number_float(double, const std::string&) { return scalar(); }
+  bool string(std::string&) { return scalar(); }
+  bool binary(nlohmann::json::binary_t&) { return scalar(); }
+  bool start_object(std::size_t) { return open(false); }
+  bool start_array(std::size_t) { return open(true); }
+  bool key(std::string& k) {
+    Frame& top = frames_.back();
+    top.key = std::move(k);
+    reselect();
+    last_end_ = *consumed_;
     return true;
   }
-  bool key(string_t& k) override {
-    frames_.back().key = k;
-    return true;
-  }
-  bool end_object() override { return close(); }
-  bool start_array(std::size_t) override {
-    record(start_of_token('['));
-    frames_.push_back({true, 0, {}});
-    return true;
-  }
-  bool end_array() override { return close(); }
-  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+  bool end_object() { return close(); }
+  bool end_array() { return close(); }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) { return false; }
 
  private:
   struct Frame {
@@ -91,64 +81,68 @@ class PositionRecorder : public nlohmann::json_sax<nlohmann::json> {
     std::string key;
   };
 
-  std::string pointer() const {
-    std::string p;
-    for (const Frame& f : frames_) p += "/" + (f.is_array ? std::to_string(f.index) : escape_pointer_token(f.key));
-    return p;
+  void note_value() {
+    if (matched_ == frames_.size() && frames_.size() == tokens_.size()) found_ = start_of_next_value(text_, last_end_);
   }
-  // The lexer has read one character past a scalar; walk back over it and the scalar to its first character.
-  std::size_t start_of_scalar() const {
-    std::size_t end = *consumed_ > text_.size() ? text_.size() : *consumed_;
-    std::size_t i = end;
-    while (i > 0 && std::string_view(" \t\r\n,]}:").find(text_[i - 1]) != std::string_view::npos) --i;
-    if (i > 0 && text_[i - 1] == '"') {
-      --i;
-      while (i > 0 && !(text_[i - 1] == '"' && (i < 2 || text_[i - 2] != '\\'))) --i;
-      return i > 0 ? i - 1 : 0;
-    }
-    while (i > 0 && std::string_view(" \t\r\n,[{:").find(text_[i - 1]) == std::string_view::npos) --i;
-    return i;
-  }
-  std::size_t start_of_token(char bracket) const {
-    std::size_t i = *consumed_ > text_.size() ? text_.size() : *consumed_;
-    while (i > 0 && text_[i - 1] != bracket) --i;
-    return i > 0 ? i - 1 : 0;
-  }
-  // A key given twice keeps its last value (nlohmann's rule), so its last position is the one to report.
-  void record(std::size_t offset) { (*offsets_)[pointer()] = offset; }
-  bool value() {
-    record(start_of_scalar());
+  bool scalar() {
+    note_value();
     advance();
+    last_end_ = *consumed_;
+    return true;
+  }
+  bool open(bool is_array) {
+    if (frames_.size() >= kMaxJsonNesting) return false;
+    note_value();
+    frames_.push_back({is_array, 0, {}});
+    if (is_array) reselect();
+    last_end_ = *consumed_;
     return true;
   }
   bool close() {
     frames_.pop_back();
+    if (matched_ > frames_.size()) matched_ = frames_.size();
     advance();
+    last_end_ = *consumed_;
     return true;
   }
   void advance() {
-    if (!frames_.empty() && frames_.back().is_array) ++frames_.back().index;
+    if (!frames_.empty() && frames_.back().is_array) {
+      ++frames_.back().index;
+      reselect();
+    }
+  }
+  // The innermost container's key or index has changed: whether the match reaches through it.
+  void reselect() {
+    const std::size_t depth = frames_.size() - 1;
+    if (matched_ < depth) return;
+    const Frame& top = frames_.back();
+    const bool same = depth < tokens_.size() && (top.is_array ? tokens_[depth] == std::to_string(top.index) : tokens_[depth] == top.key);
+    matched_ = same ? depth + 1 : depth;
   }
 
-  const std::size_t* consumed_;
-  std::unordered_map<std::string, std::size_t>* offsets_;
   std::string_view text_;
+  const std::size_t* consumed_;
+  std::vector<std::string> tokens_;
   std::vector<Frame> frames_;
+  std::size_t matched_ = 0;
+  std::size_t last_end_ = 0;
+  std::optional<std::size_t> found_;
 };
 
 }  // namespace
 
-JsonPositions::JsonPositions(std::string_view text) : text_(text) {
+std::optional<std::size_t> find_value_offset(std::string_view text, const std::string& pointer) {
+  if (!pointer.empty() && pointer[0] != '/') return std::nullopt;
   std::size_t consumed = 0;
-  PositionRecorder recorder(&consumed, &offsets_, text);
+  ValueFinder finder(text, &consumed, pointer_tokens(pointer));
   CountingIterator first(text.data(), &consumed), last(text.data() + text.size(), &consumed);
-  nlohmann::json::sax_parse(first, last, &recorder);
+  nlohmann::json::sax_parse(first, last, &finder);
+  return finder.found();
 }
 
 TextPosition JsonPositions::find(const std::string& pointer) const {
-  const auto it = offsets_.find(pointer);
-  if (it == offsets_.end()) return {};
-  return position_of_offset(text_, it->second);
+  const std::optional<std::size_t> offset = find_value_offset(text_, pointer);
+  return offset ? position_of_offset(text_, *offset) : TextPosition{};
 }
 
 TextPosition JsonPositions::position_of_offset(std::string_view text, std::size_t offset) {

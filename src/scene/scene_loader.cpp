@@ -1,19 +1,23 @@
 // Scene files: JSON text -> SceneDescription. Every value is checked where it is read, and the first problem
-// becomes an InputError naming the file, the line and column, and the JSON path of the offending value.
+// becomes an InputError naming the file, the line and column, and the JSON path of the offending value. The text
+// is first outlined (json_outline.hpp); the entries of the long lists are then parsed and read one at a time, and
+// a line and column are looked up only for an error.
 #include "scene/scene_loader.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <initializer_list>
 #include <map>
-#include <sstream>
+#include <optional>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "base/input_file.hpp"
 #include "image/image_io.hpp"
+#include "scene/json_outline.hpp"
 #include "scene/json_positions.hpp"
+#include "scene/json_scan.hpp"
 
 namespace pt {
 
@@ -50,21 +54,48 @@ const char* type_name(const Json& j) {
   }
 }
 
-// Shared by all nodes of one file: where it came from and where each value sits in it.
+// Shared by all nodes of one file: its name and its text.
 struct Document {
   std::string source;
-  const JsonPositions* positions;
+  std::string_view text;
+};
+
+// Where a node's value was parsed from: the whole text, or the text of one list entry, whose JSON path is the
+// first `pointer_length` characters of the node's path. Errors are located by scanning only that text.
+struct ParsedFrom {
+  TextRange range;
+  std::size_t pointer_length = 0;
 };
 
 // A JSON value together with its path, so that every check can say where it failed.
 class Node {
  public:
-  Node(const Json& value, std::string pointer, const Document& document) : value_(value), pointer_(std::move(pointer)), document_(document) {}
+  Node(const Json& value, std::string pointer, const Document& document, ParsedFrom from)
+      : value_(value), pointer_(std::move(pointer)), document_(document), from_(from) {}
 
   [[noreturn]] void fail(const std::string& message) const {
-    const TextPosition at = document_.positions->find(pointer_);
-    const std::string place = at.line ? fmt::format("{}:{}:{}", document_.source, at.line, at.column) : document_.source;
+    const std::optional<std::size_t> offset = text_offset();
+    std::string place = document_.source;
+    if (offset) {
+      const TextPosition at = JsonPositions::position_of_offset(document_.text, *offset);
+      place = fmt::format("{}:{}:{}", document_.source, at.line, at.column);
+    }
     throw InputError(fmt::format("{}: {}: {}", place, pointer_.empty() ? "(top level)" : pointer_, message));
+  }
+
+  // Where the value starts in the file's text.
+  std::optional<std::size_t> text_offset() const {
+    const std::string_view within = document_.text.substr(from_.range.begin, from_.range.end - from_.range.begin);
+    const std::optional<std::size_t> offset = find_value_offset(within, pointer_.substr(from_.pointer_length));
+    if (!offset) return std::nullopt;
+    return *offset + from_.range.begin;
+  }
+
+  // The value as written (for a number, its digits).
+  std::string literal() const {
+    const std::optional<std::size_t> offset = text_offset();
+    if (!offset) return value_.dump();
+    return std::string(document_.text.substr(*offset, end_of_scalar(document_.text, *offset) - *offset));
   }
 
   const Json& json() const { return value_; }
@@ -95,7 +126,7 @@ class Node {
 
   bool has(const char* key) const { return value_.is_object() && value_.contains(key); }
 
-  Node child(const std::string& key) const { return Node(value_.at(key), pointer_ + "/" + escape_pointer_token(key), document_); }
+  Node child(const std::string& key) const { return Node(value_.at(key), pointer_ + "/" + escape_pointer_token(key), document_, from_); }
 
   Node at(const char* key) const {
     expect_object();
@@ -103,7 +134,7 @@ class Node {
     return child(key);
   }
 
-  Node element(std::size_t i) const { return Node(value_.at(i), pointer_ + "/" + std::to_string(i), document_); }
+  Node element(std::size_t i) const { return Node(value_.at(i), pointer_ + "/" + std::to_string(i), document_, from_); }
 
   std::size_t array_size(std::size_t expected_min, std::size_t expected_max) const {
     if (!value_.is_array()) fail(fmt::format("expected an array, found {}", type_name(value_)));
@@ -133,7 +164,14 @@ class Node {
   }
   u32 integer(u64 lo, u64 hi) const {
     if (!value_.is_number_integer() && !value_.is_number_unsigned()) {
-      if (value_.is_number_float()) fail("expected an integer, found a fractional number");
+      if (value_.is_number_float()) {
+        // An integer too large for 64 bits (18446744073709551616) reaches here as a double: it is out of range,
+        // not fractional.
+        const double v = value_.get<double>();
+        if (std::floor(v) == v && (v < static_cast<double>(lo) || v > static_cast<double>(hi)))
+          fail(fmt::format("{} is outside the allowed range [{}, {}]", literal(), lo, hi));
+        fail("expected an integer, found a fractional number");
+      }
       fail(fmt::format("expected an integer, found {}", type_name(value_)));
     }
     if (value_.is_number_unsigned()) {
@@ -169,6 +207,7 @@ class Node {
   const Json& value_;
   std::string pointer_;
   const Document& document_;
+  ParsedFrom from_;
 };
 
 // Builds the description while keeping name tables for textures and materials.
@@ -177,7 +216,8 @@ class SceneReader {
   SceneReader(const Document& document, std::filesystem::path base_folder, SceneDescription& scene)
       : document_(document), base_folder_(std::move(base_folder)), scene_(scene) {}
 
-  void read(const Node& root) {
+  // `root` is the outline's document, whose lists are empty; their entries are parsed from the text one by one.
+  void read(const Node& root, const JsonOutline& outline) {
     root.allow_keys({"render", "camera", "background", "textures", "materials", "objects"});
     if (root.has("render")) read_render(root.child("render"));
     read_camera(root.at("camera"));
@@ -185,19 +225,33 @@ class SceneReader {
     if (root.has("textures")) {
       const Node textures = root.child("textures");
       textures.expect_object();
-      for (const auto& item : textures.json().items()) texture_names_[item.key()] = read_texture(textures.child(item.key()));
+      for (const auto& [key, range] : outline.textures.value())
+        with_entry(textures.pointer() + "/" + escape_pointer_token(key), range, [&](const Node& n) { texture_names_[key] = read_texture(n); });
     }
     if (root.has("materials")) {
       const Node materials = root.child("materials");
       materials.expect_object();
-      for (const auto& item : materials.json().items()) material_names_[item.key()] = read_material(materials.child(item.key()));
+      for (const auto& [key, range] : outline.materials.value())
+        with_entry(materials.pointer() + "/" + escape_pointer_token(key), range, [&](const Node& n) { material_names_[key] = read_material(n); });
     }
     const Node objects = root.at("objects");
-    const std::size_t count = objects.array_size(1, 1u << 24);
-    for (std::size_t i = 0; i < count; ++i) read_object(objects.element(i));
+    if (!objects.json().is_array()) objects.array_size(1, 1u << 24);  // refuses it, saying what it is
+    const std::vector<TextRange>& list = outline.objects.value();
+    if (list.empty() || list.size() > (1u << 24)) objects.fail(fmt::format("expected between 1 and {} elements, found {}", 1u << 24, list.size()));
+    scene_.objects.reserve(list.size());
+    for (std::size_t i = 0; i < list.size(); ++i)
+      with_entry(objects.pointer() + "/" + std::to_string(i), list[i], [&](const Node& n) { read_object(n); });
   }
 
  private:
+  // Parses one list entry (the outline has checked its text) and reads it.
+  template <class Read>
+  void with_entry(std::string pointer, TextRange range, Read&& read) {
+    const Json value = Json::parse(document_.text.data() + range.begin, document_.text.data() + range.end);
+    const std::size_t pointer_length = pointer.size();
+    read(Node(value, std::move(pointer), document_, ParsedFrom{range, pointer_length}));
+  }
+
   void read_render(const Node& n) {
     n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "t_min"});
     RenderSettings& r = scene_.render;
@@ -318,7 +372,8 @@ class SceneReader {
     } catch (const InputError& e) {
       where.fail(e.what());
     }
-    if (scene_.texels.size() / 3 + static_cast<u64>(image.width) * image.height > 0xffffffffull) where.fail("the scene's images are too large in total");
+    if (scene_.texels.size() + image.srgb.size() > kMaxSceneTexelBytes)
+      where.fail(fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)", kMaxSceneTexelBytes >> 20));
     const ImageRef ref{image.width, image.height, static_cast<u32>(scene_.texels.size() / 3)};
     scene_.texels.insert(scene_.texels.end(), image.srgb.begin(), image.srgb.end());
     images_.emplace(key, ref);
@@ -490,32 +545,23 @@ class SceneReader {
 
 }  // namespace
 
-SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
-  Json root;
-  try {
-    root = Json::parse(text.begin(), text.end());
-  } catch (const Json::parse_error& e) {
-    const TextPosition at = JsonPositions::position_of_offset(text, e.byte > 0 ? e.byte - 1 : 0);
-    std::string what = e.what();
-    // nlohmann's message starts with its own error id and position ("[json.exception.parse_error.101] parse error
-    // at line 8, column 55: "): keep only the description, the position is already in front.
-    if (const auto column = what.find(", column "); column != std::string::npos)
-      if (const auto colon = what.find(": ", column); colon != std::string::npos) what = what.substr(colon + 2);
-    throw InputError(fmt::format("{}:{}:{}: invalid JSON: {}", source, at.line, at.column, what));
-  } catch (const Json::exception& e) {
-    // Other parser failures, such as a number too large for a double ("1e999").
-    std::string what = e.what();
-    if (const auto bracket = what.find("] "); bracket != std::string::npos) what = what.substr(bracket + 2);
-    throw InputError(fmt::format("{}: invalid JSON: {}", source, what));
-  }
-  const JsonPositions positions(text);
-  const Document document{source, &positions};
+namespace {
+
+SceneDescription parse_scene_text(std::shared_ptr<const std::string> text, const std::string& source, const std::filesystem::path& base_folder) {
+  const JsonOutline outline = read_json_outline(*text, source);
+  const Document document{source, *text};
   SceneDescription scene;
   scene.source = source;
-  scene.written.text = std::make_shared<const std::string>(text);
+  scene.written.text = text;
   SceneReader reader(document, base_folder, scene);
-  reader.read(Node(root, "", document));
+  reader.read(Node(outline.root, "", document, ParsedFrom{TextRange{0, text->size()}, 0}), outline);
   return scene;
+}
+
+}  // namespace
+
+SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
+  return parse_scene_text(std::make_shared<const std::string>(text), source, base_folder);
 }
 
 std::string source_position(const SceneDescription& scene, const std::string& pointer) {
@@ -525,14 +571,17 @@ std::string source_position(const SceneDescription& scene, const std::string& po
 }
 
 SceneDescription load_scene_file(const std::filesystem::path& file) {
-  std::error_code error;
-  if (std::filesystem::is_directory(file, error)) throw InputError(fmt::format("{}: is a folder, not a scene file", file.string()));
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open the scene file", file.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
-  return parse_scene(text.str(), file.string(), file.parent_path());
+  InputFile input = InputFile::open(file);
+  switch (input.problem()) {
+    case InputFile::Problem::kNone: break;
+    case InputFile::Problem::kMissing: throw InputError(fmt::format("{}: cannot open the scene file", file.string()));
+    case InputFile::Problem::kFolder: throw InputError(fmt::format("{}: is a folder, not a scene file", file.string()));
+    case InputFile::Problem::kNotRegular: throw InputError(fmt::format("{}: is {}, not a scene file", file.string(), input.reason()));
+    case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("{}: cannot open the scene file: {}", file.string(), input.reason()));
+  }
+  std::string text;
+  if (!input.read_all(text)) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
+  return parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path());
 }
 
 }  // namespace pt

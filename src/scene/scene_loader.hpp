@@ -25,5 +25,7 @@ inline constexpr u32 kMaxImageSide = 16384;
 inline constexpr u64 kMaxImagePixels = 64ull * 1024 * 1024;
 inline constexpr u32 kMaxSamplesPerPixel = 1u << 20;
 inline constexpr u32 kMaxDepth = 10000;
+// All image textures of a scene together, as stored (three bytes per texel); also keeps texel offsets within 32 bits.
+inline constexpr u64 kMaxSceneTexelBytes = u64{1} << 30;
 
 }  // namespace pt
