@@ -28,6 +28,7 @@ class CpuDevice {
   std::string kind() const { return "cpu"; }
   std::string description() const { return std::to_string(threads_) + (threads_ == 1 ? " thread" : " threads"); }
   bool host() const { return true; }
+  bool memory_on_host() const { return true; }
   bool times_on_device() const { return false; }
 
   void* allocate(std::size_t bytes, const char*) { return ::operator new(std::max<std::size_t>(bytes, 1), kAlignment); }

@@ -64,6 +64,7 @@ class CudaDevice {
     return "GPU " + std::to_string(index_) + ": " + properties_.name + ", " + std::to_string(properties_.multiProcessorCount) + " SMs";
   }
   bool host() const { return false; }
+  bool memory_on_host() const { return false; }
   bool times_on_device() const { return true; }
 
   void* allocate(std::size_t bytes, const char* what) {

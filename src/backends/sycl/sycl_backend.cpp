@@ -99,6 +99,7 @@ class SyclDevice {
     return fmt::format("device {}: {}", index_ < 0 ? std::string("default") : std::to_string(index_), description_);
   }
   bool host() const { return host_; }
+  bool memory_on_host() const { return false; }  // device allocations, even on a CPU device
   bool times_on_device() const { return profiling_; }
 
   void* allocate(std::size_t bytes, const char* what) {
