@@ -141,9 +141,10 @@ void write_results(const std::filesystem::path& folder, const SceneDescription& 
 }  // namespace
 
 int run_numerics(const NumericsOptions& options) {
-  const SceneDescription scene = load_scene_file(options.scene);
+  // The command line's mistakes first: they cost nothing to find.
   check_image_size(options.width, options.height, fmt::format("--width {} --height {}", options.width, options.height));
   check_output_folder(options.output_folder);
+  const SceneDescription scene = load_scene_file(options.scene);
   RenderSettings settings = scene.render;
   settings.width = options.width;
   settings.height = options.height;
