@@ -685,14 +685,80 @@ TEST_F(CommandLineErrors, AbsurdSizeOnTheCommandLine) {
   ASSERT_EQ(test::lines_of(result.err).size(), 1u) << result.err;
   EXPECT_EQ(result.err.rfind("pathtracer: error: --width", 0), 0u) << result.err;
   EXPECT_EQ(dir_.entries(), inputs_);
-  // Each side allowed, the product not.
-  result = render(scene_, "--width 16384 --height 16384 -o " + test::quoted(dir_ / "out.png"));
-  EXPECT_NE(result.exit_code, 0);
-  const std::vector<std::string> lines = test::lines_of(result.err);
-  ASSERT_EQ(lines.size(), 1u) << result.err;
-  EXPECT_EQ(lines[0].rfind("pathtracer: error: ", 0), 0u);
-  EXPECT_NE(lines[0].find(scene_.string() + ": 16384x16384 pixels is too large"), std::string::npos) << lines[0];
-  EXPECT_EQ(dir_.entries(), inputs_);
+  // Each side allowed, the product not: the options are named, not the scene file.
+  result = render(scene_, "--width 16384 --height 4097 -o " + test::quoted(dir_ / "out.png"));
+  expect_single_error(result, "pathtracer: error: --width 16384 --height 4097: 16384x4097 pixels is too large (at most 67108864 pixels");
+  EXPECT_EQ(result.exit_code, 1);
+}
+
+TEST_F(CommandLineErrors, SizeTooLargeWithOneSideFromTheSceneNamesTheOptionAndTheScene) {
+  test::write_text_file(scene_, with(R"("width": 8, "height": 6)", R"("width": 8, "height": 5000)"));
+  const test::CommandResult result = render(scene_, "--width 16384 -o " + test::quoted(dir_ / "out.png"));
+  expect_single_error(result, "pathtracer: error: --width 16384 with the scene's height 5000 (" + scene_.string() + "): 16384x5000 pixels is too large");
+  EXPECT_EQ(result.exit_code, 1);
+}
+
+TEST_F(CommandLineErrors, NumericsSizeTooLargeNamesTheOptions) {
+  const test::CommandResult result =
+      test::run_pathtracer("numerics " + test::quoted(scene_) + " --width 16384 --height 4097 -o " + test::quoted(dir_ / "results"), dir_);
+  expect_single_error(result, "pathtracer: error: --width 16384 --height 4097: 16384x4097 pixels is too large");
+  EXPECT_EQ(result.exit_code, 1);
+}
+
+TEST_F(CommandLineErrors, NumericsFolderThatIsAFileIsRefusedBeforeRendering) {
+  test::write_text_file(dir_ / "results", "a file\n");
+  inputs_.push_back("results");
+  const test::CommandResult result = test::run_pathtracer("numerics " + test::quoted(scene_) + " -o " + test::quoted(dir_ / "results"), dir_);
+  expect_single_error(result, (dir_ / "results").string() + ": cannot write the results: it is a file, not a folder");
+  EXPECT_EQ(result.exit_code, 1);
+}
+
+// Every mistake on the command line exits with the one code of every input error (1), not the option parser's
+// own codes (104-114), in the one-line form, naming the option where there is one.
+TEST_F(CommandLineErrors, CommandLineMistakesExitWithTheInputErrorCode) {
+  const std::string out = " -o " + test::quoted(dir_ / "out.png");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"render " + test::quoted(scene_) + " --width 0" + out, "--width"},
+      {"render " + test::quoted(scene_) + " --spp many" + out, "--spp"},
+      {"render " + test::quoted(scene_) + " --backend nowhere" + out, "--backend"},
+      {"render " + test::quoted(scene_) + " --no-such-option" + out, "--no-such-option"},
+      {"render " + test::quoted(scene_) + " --width" + out, "--width"},
+      {"bench " + test::quoted(scene_) + " --runs 0", "--runs"},
+      {"numerics", "scene"},
+      {"numerics " + test::quoted(scene_) + " --formats q99.99", "--formats"},
+      {"", "subcommand"},
+      {"paint", "A subcommand is required"},
+  };
+  for (const auto& [arguments, names] : cases) {
+    SCOPED_TRACE(arguments);
+    const test::CommandResult result = test::run_pathtracer(arguments, dir_);
+    EXPECT_EQ(result.exit_code, 1) << result.err;
+    const std::vector<std::string> lines = test::lines_of(result.err);
+    ASSERT_EQ(lines.size(), 1u) << result.err;
+    EXPECT_EQ(lines[0].rfind("pathtracer: error: ", 0), 0u) << lines[0];
+    EXPECT_NE(lines[0].find(names), std::string::npos) << lines[0];
+    EXPECT_EQ(dir_.entries(), inputs_);
+  }
+}
+
+// --help and --version succeed; --help documents the exit status and the size limit.
+TEST_F(CommandLineErrors, HelpAndVersionExitZeroAndHelpDocumentsTheExitStatus) {
+  const std::filesystem::path out = dir_ / "stdout.txt";
+  for (const char* arguments : {"--help", "--version", "render --help"}) {
+    const std::string command = "'" + test::pathtracer_binary() + "' " + arguments + " > " + test::quoted(out) + " 2>&1";
+    const int status = std::system(command.c_str());
+    ASSERT_TRUE(WIFEXITED(status)) << arguments;
+    EXPECT_EQ(WEXITSTATUS(status), 0) << arguments;
+    const std::string text = test::read_text_file(out);
+    if (std::string(arguments) == "--help") {
+      EXPECT_NE(text.find("Exit status: 0 on success; 1 on any error: bad input (command line"), std::string::npos) << text;
+      EXPECT_NE(text.find("67108864 pixels in all"), std::string::npos) << text;
+    }
+    if (std::string(arguments) == "--version") {
+      EXPECT_EQ(text.rfind("pathtracer ", 0), 0u) << text;
+    }
+  }
+  std::filesystem::remove(out);
 }
 
 TEST_F(CommandLineErrors, AbsurdSizeInTheSceneFile) {

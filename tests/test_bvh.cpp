@@ -524,6 +524,23 @@ TYPED_TEST(BvhStructure, InvariantsHoldForSkewedAndCoincidentCentroids) {
   check_structure(flat);
 }
 
+// Primitives whose centroids all coincide give the surface-area heuristic nothing to separate; the builder then
+// splits by count, so that no leaf grows beyond its usual size (one leaf of them all made every ray test each one).
+TEST(BvhStructure, CoincidentSpheresGiveSmallLeaves) {
+  SceneDescription scene = empty_scene();
+  for (int i = 0; i < 10000; ++i) scene.objects.push_back(object(Sphere<double>{{1, 2, 3}, 0.5}));
+  const FlatScene<float> flat = flatten_scene<float>(scene, RenderSettings{});
+  check_structure(flat);
+  u32 largest_leaf = 0;
+  for (const BvhNode<float>& n : flat.nodes) largest_leaf = std::max(largest_leaf, n.count);
+  EXPECT_LE(largest_leaf, kMaxLeafSize);
+  u32 largest_wide_leaf = 0;
+  for (const WideBvhNode<float>& n : flat.wide_nodes)
+    for (u32 lane = 0; lane < kWideBvhWidth; ++lane)
+      if (n.leaf_mask >> lane & 1u) largest_wide_leaf = std::max(largest_wide_leaf, static_cast<u32>(n.count[lane]));
+  EXPECT_LE(largest_wide_leaf, kMaxLeafSize);
+}
+
 TYPED_TEST(BvhStructure, SinglePrimitiveSceneIsOneLeaf) {
   using T = TypeParam;
   SceneDescription scene = empty_scene();

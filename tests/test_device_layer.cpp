@@ -28,6 +28,7 @@ class CountingGpuLikeDevice {
   std::string description() const { return "the CPU device, not the host"; }
   bool host() const { return false; }
   Integrator preferred_integrator() const { return Integrator::kWavefront; }
+  bool memory_on_host() const { return false; }
   bool times_on_device() const { return true; }
   void* allocate(std::size_t bytes, const char* what) { return cpu_.allocate(bytes, what); }
   void release(void* pointer) { cpu_.release(pointer); }

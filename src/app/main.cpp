@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "app/backends.hpp"
+#include "app/image_size.hpp"
 #include "app/numerics.hpp"
 #include "film/film.hpp"
 #include "base/number_formats.hpp"
@@ -32,6 +33,9 @@
 
 namespace pt {
 namespace {
+
+// The exit status of every failure, bad input and failing devices alike (README.md, --help).
+constexpr int kErrorExitCode = 1;
 
 struct RenderOptions {
   std::string scene = PT_DEFAULT_SCENE;
@@ -88,8 +92,10 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   if (options.spp) settings.samples_per_pixel = *options.spp;
   if (options.depth) settings.max_depth = *options.depth;
   if (options.seed) settings.seed = *options.seed;
-  if (static_cast<u64>(settings.width) * settings.height > kMaxImagePixels)
-    throw InputError(fmt::format("{}: {}x{} pixels is too large (at most {} pixels)", scene.source, settings.width, settings.height, kMaxImagePixels));
+  // The scene's own size was checked when it was read, so a size too large here comes from the command line.
+  if (options.width && options.height) check_image_size(settings.width, settings.height, fmt::format("--width {} --height {}", settings.width, settings.height));
+  else if (options.width) check_image_size(settings.width, settings.height, fmt::format("--width {} with the scene's height {} ({})", settings.width, settings.height, scene.source));
+  else if (options.height) check_image_size(settings.width, settings.height, fmt::format("--height {} with the scene's width {} ({})", settings.height, settings.width, scene.source));
   return settings;
 }
 
@@ -147,15 +153,15 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
                settings.samples_per_pixel, settings.max_depth, flat.primitives.size(), backend->name(), options.number_format);
     if (flat.scale != 1) fmt::print(stderr, "lengths scaled by {:g} to fit {} (docs/numerics.md)\n", flat.scale, options.number_format);
   }
-  const RenderResult result = render_scene(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
-  phases.add("upload", result.stats.upload_seconds);
-  phases.add("render", result.stats.seconds);
+  // The film is resolved band by band as the image is encoded, never copied whole (BENCHMARKS.md, memory).
+  const RenderedFilm film = render_film(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
+  phases.add("upload", film.stats.upload_seconds);
+  phases.add("render", film.stats.seconds);
   if (const std::optional<double> on_device = backend->device_seconds()) phases.add("  of which on the device", *on_device);
-  phases.add("read-back", result.stats.read_back_seconds);
-  phases.add("resolve", result.stats.resolve_seconds);
-  phases.time("encode and write", [&] { write_image(options.output, result.image); });
+  phases.add("read-back", film.stats.read_back_seconds);
+  phases.time("resolve, encode and write", [&] { write_image(options.output, film_rows(film)); });
   if (!options.quiet) {
-    const RenderStats& s = result.stats;
+    const RenderStats& s = film.stats;
     fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
                format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
     if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
@@ -235,8 +241,12 @@ int main(int argc, char** argv) {
   CLI::App app{"pathtracer: a physically based Monte Carlo path tracer for CPUs and GPUs"};
   app.set_version_flag("--version", std::string("pathtracer ") + PT_VERSION);
   app.require_subcommand(1);
-  // Command-line mistakes get the same one-line form as every other error.
+  // Command-line mistakes get the same one-line form and exit status as every other input error.
   app.failure_message([](const CLI::App*, const CLI::Error& e) { return std::string("pathtracer: error: ") + e.what() + "\n"; });
+  app.footer(fmt::format("Exit status: 0 on success; {} on any error: bad input (command line, scene file, images, output place, a\n"
+                         "failed write) or a failing device, with one line 'pathtracer: error: ...' on stderr. Images are at most\n"
+                         "{} pixels a side and {} pixels in all.",
+                         kErrorExitCode, kMaxImageSide, kMaxImagePixels));
 
   RenderOptions options;
   CLI::App* render = app.add_subcommand("render", "Render a scene file to an image (PNG, PFM or OpenEXR, by extension)");
@@ -282,7 +292,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version arrive here too, with status 0; CLI11's own codes for mistakes (104-114) are replaced
+    // by the one documented code.
+    const int status = app.exit(e);
+    return status == 0 ? 0 : kErrorExitCode;
   }
   try {
     if (*devices) {
@@ -302,5 +315,5 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     fmt::print(stderr, "pathtracer: error: {}\n", e.what());
   }
-  return 1;
+  return kErrorExitCode;
 }

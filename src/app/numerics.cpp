@@ -5,13 +5,14 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 
 #include <fmt/format.h>
 
 #include "app/backends.hpp"
+#include "app/image_size.hpp"
+#include "base/atomic_file.hpp"
 #include "film/film.hpp"
 #include "base/number_formats.hpp"
 #include "scene/scene_loader.hpp"
@@ -110,9 +111,39 @@ std::string plot_svg(const std::vector<Row>& rows, const std::string& title) {
   return svg;
 }
 
+// Before any rendering, so that a file where the folder should be is reported at once.
+void check_output_folder(const std::filesystem::path& folder) {
+  std::error_code error;
+  if (std::filesystem::exists(folder, error) && !std::filesystem::is_directory(folder, error))
+    throw InputError(fmt::format("{}: cannot write the results: it is a file, not a folder", folder.string()));
+}
+
+// The output folder, made if missing; returns whether it was.
+bool make_output_folder(const std::filesystem::path& folder) {
+  check_output_folder(folder);
+  std::error_code error;
+  const bool created = std::filesystem::create_directories(folder, error);
+  if (error) throw InputError(fmt::format("{}: cannot create the folder: {}", folder.string(), error.message()));
+  return created;
+}
+
+// All or nothing: the files are complete and synced under temporary names beside their final ones before the
+// first rename, so a full disk or a failing write (the likely failures) leaves the folder as it was. The renames
+// then only fail if the folder is changed under the program; should one fail, the files not yet renamed are
+// removed and the error reported (a folder cannot be replaced whole without losing files others put in it).
+void publish_all(std::vector<AtomicFile>& files) {
+  for (AtomicFile& file : files) file.publish();
+}
+
+void write_results(const std::filesystem::path& folder, const SceneDescription& scene, const RenderSettings& settings,
+                   const std::vector<Row>& rows, std::vector<AtomicFile>& files);
+
 }  // namespace
 
 int run_numerics(const NumericsOptions& options) {
+  // The command line's mistakes first: they cost nothing to find.
+  check_image_size(options.width, options.height, fmt::format("--width {} --height {}", options.width, options.height));
+  check_output_folder(options.output_folder);
   const SceneDescription scene = load_scene_file(options.scene);
   RenderSettings settings = scene.render;
   settings.width = options.width;
@@ -152,10 +183,33 @@ int run_numerics(const NumericsOptions& options) {
     rows.push_back(std::move(row));
   }
 
+  // Every file is made complete on disk under a temporary name before any takes its place (publish_all below).
+  std::vector<AtomicFile> files;
   const std::filesystem::path folder = options.output_folder;
-  std::filesystem::create_directories(folder);
-  std::ofstream csv(folder / "numerics.csv");
-  csv << "scene,format,bits,scale,rmse,psnr_db,visible_share,saturations,seconds,status\n";
+  const bool created_folder = make_output_folder(folder);
+  try {
+    write_results(folder, scene, settings, rows, files);
+    publish_all(files);
+  } catch (...) {
+    files.clear();  // the temporaries go
+    std::error_code ignored;
+    if (created_folder) std::filesystem::remove(folder, ignored);  // only if still empty: it was made for this run
+    throw;
+  }
+  std::string order;
+  for (const Row& r : rows)
+    if (r.rendered) order += (order.empty() ? "" : ", ") + r.format;
+  if (!order.empty())
+    fmt::print(stderr, "wrote {}: numerics.csv, error-vs-bits.svg, side-by-side.png ({}) and one PNG per format\n", folder.string(), order);
+  return 0;
+}
+
+namespace {
+
+// The table (to stdout and numerics.csv), the plot and the images, each written to its temporary in `files`.
+void write_results(const std::filesystem::path& folder, const SceneDescription& scene, const RenderSettings& settings,
+                   const std::vector<Row>& rows, std::vector<AtomicFile>& files) {
+  std::string csv = "scene,format,bits,scale,rmse,psnr_db,visible_share,saturations,seconds,status\n";
   const std::string table_head = fmt::format("{:<8} {:>4} {:>10} {:>10} {:>9} {:>9} {:>12} {:>8}  {}\n", "format", "bits", "scale", "rmse",
                                              "psnr_db", "visible%", "saturations", "seconds", "status");
   std::string table = table_head;
@@ -164,21 +218,22 @@ int run_numerics(const NumericsOptions& options) {
     std::string quoted = status;
     std::replace(quoted.begin(), quoted.end(), '"', '\'');
     if (r.rendered) {
-      csv << fmt::format("{},{},{},{:g},{:.6g},{},{:.6g},{},{:.4f},ok\n", scene.source, r.format, r.bits, r.scale, r.rmse, psnr_text(r.psnr),
+      csv += fmt::format("{},{},{},{:g},{:.6g},{},{:.6g},{},{:.4f},ok\n", scene.source, r.format, r.bits, r.scale, r.rmse, psnr_text(r.psnr),
                          r.visible_share, r.saturations, r.seconds);
       table += fmt::format("{:<8} {:>4} {:>10g} {:>10.6f} {:>9} {:>9.3f} {:>12} {:>8.3f}  ok\n", r.format, r.bits, r.scale, r.rmse, psnr_text(r.psnr),
                            100 * r.visible_share, r.saturations, r.seconds);
-      write_image(folder / (r.format + ".png"), r.image);
+      files.push_back(write_image_unpublished(folder / (r.format + ".png"), rows_of(r.image)));
     } else {
-      csv << fmt::format("{},{},{},,,,,,,\"{}\"\n", scene.source, r.format, r.bits, quoted);
+      csv += fmt::format("{},{},{},,,,,,,\"{}\"\n", scene.source, r.format, r.bits, quoted);
       table += fmt::format("{:<8} {:>4} {:>10} {:>10} {:>9} {:>9} {:>12} {:>8}  does not fit\n", r.format, r.bits, "-", "-", "-", "-", "-", "-");
     }
   }
   fmt::print("{}", table);
-
-  std::ofstream(folder / "error-vs-bits.svg")
-      << plot_svg(rows, fmt::format("{}: {}x{}, {} spp", std::filesystem::path(scene.source).filename().string(), settings.width, settings.height,
-                                    settings.samples_per_pixel));
+  files.push_back(write_file_unpublished(folder / "numerics.csv", "the table", csv));
+  files.push_back(write_file_unpublished(
+      folder / "error-vs-bits.svg", "the plot",
+      plot_svg(rows, fmt::format("{}: {}x{}, {} spp", std::filesystem::path(scene.source).filename().string(), settings.width, settings.height,
+                                 settings.samples_per_pixel))));
 
   // Every rendered format left to right in table order, 4 black pixels apart.
   std::vector<const Row*> shown;
@@ -194,12 +249,9 @@ int run_numerics(const NumericsOptions& options) {
       for (u32 y = 0; y < h; ++y)
         std::copy_n(&shown[i]->image.rgb[static_cast<std::size_t>(y) * w * 3], w * 3,
                     &strip.rgb[(static_cast<std::size_t>(y) * strip.width + i * (w + gap)) * 3]);
-    write_image(folder / "side-by-side.png", strip);
-    std::string order;
-    for (const Row* r : shown) order += (order.empty() ? "" : ", ") + r->format;
-    fmt::print(stderr, "wrote {}: numerics.csv, error-vs-bits.svg, side-by-side.png ({}) and one PNG per format\n", folder.string(), order);
+    files.push_back(write_image_unpublished(folder / "side-by-side.png", rows_of(strip)));
   }
-  return 0;
 }
 
+}  // namespace
 }  // namespace pt

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +32,13 @@ class RenderBackend {
 
   // Copies the film to the host (row-major, rows from the top).
   virtual void read_film(std::vector<FilmPixel>& pixels) = 0;
+
+  // The film where the host can read it, valid until the next upload: the backend's own memory where that is host
+  // memory (no copy: a large film would otherwise be held twice), else a copy read back into `copy`.
+  virtual std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) {
+    read_film(copy);
+    return copy;
+  }
 
   // Time the device spent rendering since the last upload, measured on the device (CUDA events) where the
   // backend can; otherwise empty and callers use the wall clock.

@@ -11,26 +11,40 @@
 
 namespace pt {
 
-LinearImage resolve_film(const std::vector<FilmPixel>& film, u32 width, u32 height) {
+namespace {
+
+// Rows [first_row, first_row + row_count) of the film as linear RGB, three floats per pixel, into `rgb`.
+void resolve_rows(std::span<const FilmPixel> film, u32 width, u32 first_row, u32 row_count, float* rgb) {
+  const std::size_t first = static_cast<std::size_t>(first_row) * width, end = first + static_cast<std::size_t>(row_count) * width;
+  for (std::size_t i = first; i < end; ++i, rgb += 3) {
+    const FilmPixel& p = film[i];
+    const double scale = p.samples ? 1.0 / p.samples : 0.0;
+    rgb[0] = static_cast<float>(p.r * scale);
+    rgb[1] = static_cast<float>(p.g * scale);
+    rgb[2] = static_cast<float>(p.b * scale);
+  }
+}
+
+}  // namespace
+
+LinearImage resolve_film(std::span<const FilmPixel> film, u32 width, u32 height) {
   LinearImage image;
   image.width = width;
   image.height = height;
   image.rgb.resize(static_cast<std::size_t>(width) * height * 3);
   // By rows on every core: large films take tens of milliseconds on one, most of it first touches of new memory.
   ParallelLoop loop(std::max(1u, std::thread::hardware_concurrency()));
-  loop.run(height, 8, [&](u32 y) {
-    for (std::size_t i = static_cast<std::size_t>(y) * width; i < static_cast<std::size_t>(y + 1) * width; ++i) {
-      const FilmPixel& p = film[i];
-      const double scale = p.samples ? 1.0 / p.samples : 0.0;
-      image.rgb[3 * i + 0] = static_cast<float>(p.r * scale);
-      image.rgb[3 * i + 1] = static_cast<float>(p.g * scale);
-      image.rgb[3 * i + 2] = static_cast<float>(p.b * scale);
-    }
-  });
+  loop.run(height, 8, [&](u32 y) { resolve_rows(film, width, y, 1, image.rgb.data() + static_cast<std::size_t>(y) * width * 3); });
   return image;
 }
 
-RenderStats film_stats(const std::vector<FilmPixel>& film, u32 samples_per_pixel) {
+ImageRows film_rows(const RenderedFilm& film) {
+  return ImageRows{film.width, film.height, [&film](u32 first_row, u32 row_count, float* rgb) {
+                     resolve_rows(film.pixels(), film.width, first_row, row_count, rgb);
+                   }};
+}
+
+RenderStats film_stats(std::span<const FilmPixel> film, u32 samples_per_pixel) {
   RenderStats stats;
   for (const FilmPixel& p : film) {
     stats.rays += p.rays;
@@ -41,7 +55,7 @@ RenderStats film_stats(const std::vector<FilmPixel>& film, u32 samples_per_pixel
 }
 
 template <class T>
-RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress) {
+RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   const auto upload_start = Clock::now();
@@ -64,23 +78,34 @@ RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, 
     pass = static_cast<u32>(std::clamp(wanted, 1.0, std::max(1.0, 4.0 * pass)));
   }
   const double render_seconds = seconds_since(start);
-  RenderResult result;
-  std::vector<FilmPixel> film;
+  RenderedFilm film;
+  film.width = scene.params.width;
+  film.height = scene.params.height;
   const auto read_start = Clock::now();
-  backend.read_film(film);
-  const double read_back_seconds = seconds_since(read_start);
+  film.on_backend = backend.film_on_host(film.copy);
+  if (film.on_backend.data() == film.copy.data()) film.on_backend = {};  // the copy it is
+  film.stats = film_stats(film.pixels(), total);
+  film.stats.saturations = backend.saturations();
+  film.stats.seconds = render_seconds;
+  film.stats.upload_seconds = upload_seconds;
+  film.stats.read_back_seconds = seconds_since(read_start);
+  return film;
+}
+
+template <class T>
+RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress) {
+  const RenderedFilm film = render_film(backend, scene, progress);
+  using Clock = std::chrono::steady_clock;
   const auto resolve_start = Clock::now();
-  result.stats = film_stats(film, total);
-  result.stats.saturations = backend.saturations();
-  result.image = resolve_film(film, scene.params.width, scene.params.height);
-  result.stats.seconds = render_seconds;
-  result.stats.upload_seconds = upload_seconds;
-  result.stats.read_back_seconds = read_back_seconds;
-  result.stats.resolve_seconds = seconds_since(resolve_start);
+  RenderResult result;
+  result.image = resolve_film(film.pixels(), film.width, film.height);
+  result.stats = film.stats;
+  result.stats.resolve_seconds = std::chrono::duration<double>(Clock::now() - resolve_start).count();
   return result;
 }
 
-#define PT_INSTANTIATE_RENDER(...) \
+#define PT_INSTANTIATE_RENDER(...)                                                                                                     \
+  template RenderedFilm render_film<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&); \
   template RenderResult render_scene<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_RENDER)
 

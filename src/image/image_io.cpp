@@ -10,7 +10,7 @@
 #include <array>
 #include <cerrno>
 #include <cmath>
-#include <cstdio>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <memory>
@@ -21,10 +21,12 @@
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <fmt/format.h>
 #include <stb/stb_image.h>
 
+#include "base/atomic_file.hpp"
 #include "base/errors.hpp"
 #include "base/input_file.hpp"
 #include "base/parallel_loop.hpp"
@@ -113,14 +115,39 @@ ImageFormat image_format_for(const std::filesystem::path& path) {
   throw InputError(fmt::format("{}: unknown image extension '{}' (use .png, .pfm or .exr)", path.string(), ext));
 }
 
+ImageRows rows_of(const LinearImage& image) {
+  return ImageRows{image.width, image.height, [&image](u32 first_row, u32 row_count, float* rgb) {
+                     const std::size_t row_floats = 3 * static_cast<std::size_t>(image.width);
+                     std::copy_n(image.rgb.data() + first_row * row_floats, row_count * row_floats, rgb);
+                   }};
+}
+
 namespace {
+
+void store_be32(unsigned char* out, u32 v) {
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<unsigned char>(v >> (24 - 8 * i));
+}
+
+// One PNG chunk: length, type, data, CRC of type and data.
+void write_png_chunk(AtomicFile& file, const char* type, const unsigned char* data, std::size_t size) {
+  unsigned char head[8], crc[4];
+  store_be32(head, static_cast<u32>(size));
+  std::memcpy(head + 4, type, 4);
+  uLong sum = crc32(0, head + 4, 4);
+  if (size > 0) sum = crc32(sum, data, static_cast<uInt>(size));  // a null buffer would reset the sum to its start
+  store_be32(crc, static_cast<u32>(sum));
+  file.write(head, sizeof(head));
+  file.write(data, size);
+  file.write(crc, sizeof(crc));
+}
 
 // PNG, 8-bit sRGB: each band of rows is converted, filtered (the Sub filter: each byte less the one three to its
 // left, which suits rendered images about as well as the adaptive choice does) and deflated at zlib's fastest level
 // on its own thread. A band ends its compressed part with a sync flush, so the parts joined make one zlib stream
 // (as pigz does); the stream's Adler-32 is combined from the bands'. About ten times faster than stb's encoder on
-// a 1200x800 render.
-std::vector<unsigned char> encode_png(const LinearImage& image) {
+// a 1200x800 render. Bands go a group at a time, each group written out before the next is made, so the memory
+// held is a few bands' worth whatever the image's size.
+void write_png(AtomicFile& file, const ImageRows& image) {
   const std::size_t row_bytes = 1 + 3 * static_cast<std::size_t>(image.width);  // the filter byte, then RGB
   constexpr u32 kBandRows = 32;
   const u32 bands = (image.height + kBandRows - 1) / kBandRows;
@@ -130,14 +157,17 @@ std::vector<unsigned char> encode_png(const LinearImage& image) {
     std::size_t raw_bytes = 0;
     int status = Z_OK;
   };
-  std::vector<Band> parts(bands);
   ParallelLoop loop(std::max(1u, std::thread::hardware_concurrency()));
-  loop.run(bands, 1, [&](u32 band) {
+  const u32 group_bands = 4 * loop.threads();
+  std::vector<Band> parts(std::min(bands, group_bands));
+  auto encode_band = [&](u32 band, Band& part) {
     const u32 first_row = band * kBandRows, rows = std::min(kBandRows, image.height - first_row);
+    std::vector<float> linear(3 * static_cast<std::size_t>(image.width) * rows);
+    image.fill(first_row, rows, linear.data());
     std::vector<unsigned char> raw(row_bytes * rows);
     for (u32 r = 0; r < rows; ++r) {
       unsigned char* out = raw.data() + r * row_bytes;
-      const float* in = image.rgb.data() + static_cast<std::size_t>(first_row + r) * image.width * 3;
+      const float* in = linear.data() + static_cast<std::size_t>(r) * image.width * 3;
       out[0] = 1;  // Sub
       unsigned char previous[3] = {0, 0, 0};
       for (std::size_t i = 0; i < 3 * static_cast<std::size_t>(image.width); ++i) {
@@ -148,7 +178,6 @@ std::vector<unsigned char> encode_png(const LinearImage& image) {
         previous[i % 3] = byte;
       }
     }
-    Band& part = parts[band];
     part.raw_bytes = raw.size();
     part.adler = adler32(1, raw.data(), static_cast<uInt>(raw.size()));
     z_stream stream{};
@@ -164,76 +193,95 @@ std::vector<unsigned char> encode_png(const LinearImage& image) {
     else if (part.status == Z_OK) part.status = Z_BUF_ERROR;
     part.deflated.resize(part.deflated.size() - stream.avail_out);
     deflateEnd(&stream);
-  });
+  };
 
+  file.write("\x89PNG\r\n\x1a\n", 8);
+  unsigned char header[13] = {0, 0, 0, 0, 0, 0, 0, 0, 8, 2, 0, 0, 0};  // 8 bits, truecolour, deflate, adaptive filtering, no interlace
+  store_be32(header, image.width);
+  store_be32(header + 4, image.height);
+  write_png_chunk(file, "IHDR", header, sizeof(header));
+  const unsigned char srgb_intent = 0;  // perceptual: the pixels are sRGB
+  write_png_chunk(file, "sRGB", &srgb_intent, 1);
+  // The zlib stream goes out in IDAT chunks of 1 MiB, as encoders commonly write them; the rest waits in `idat`.
+  constexpr std::size_t kChunk = 1u << 20;
   std::vector<unsigned char> idat{0x78, 0x01};  // zlib header: deflate, 32 KiB window, fastest
   uLong adler = 1;
-  for (const Band& part : parts) {
-    if (part.status != Z_OK) throw std::runtime_error(fmt::format("the PNG encoder failed (zlib error {})", part.status));
-    idat.insert(idat.end(), part.deflated.begin(), part.deflated.end());
-    adler = adler32_combine(adler, part.adler, static_cast<z_off_t>(part.raw_bytes));
+  for (u32 group = 0; group < bands; group += group_bands) {
+    const u32 count = std::min(group_bands, bands - group);
+    loop.run(count, 1, [&](u32 i) { encode_band(group + i, parts[i]); });
+    for (u32 i = 0; i < count; ++i) {
+      Band& part = parts[i];
+      if (part.status != Z_OK) throw std::runtime_error(fmt::format("the PNG encoder failed (zlib error {})", part.status));
+      idat.insert(idat.end(), part.deflated.begin(), part.deflated.end());
+      adler = adler32_combine(adler, part.adler, static_cast<z_off_t>(part.raw_bytes));
+      part = Band{};
+    }
+    std::size_t written = 0;
+    for (; idat.size() - written >= kChunk; written += kChunk) write_png_chunk(file, "IDAT", idat.data() + written, kChunk);
+    idat.erase(idat.begin(), idat.begin() + static_cast<std::ptrdiff_t>(written));
   }
-  for (int shift = 24; shift >= 0; shift -= 8) idat.push_back(static_cast<unsigned char>(adler >> shift));
-
-  std::vector<unsigned char> png{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  auto put32 = [&](u32 v) {
-    for (int shift = 24; shift >= 0; shift -= 8) png.push_back(static_cast<unsigned char>(v >> shift));
-  };
-  auto chunk = [&](const char* type, const unsigned char* data, std::size_t size) {
-    put32(static_cast<u32>(size));
-    const std::size_t start = png.size();
-    png.insert(png.end(), type, type + 4);
-    png.insert(png.end(), data, data + size);
-    put32(static_cast<u32>(crc32(0, png.data() + start, static_cast<uInt>(png.size() - start))));
-  };
-  const unsigned char header[13] = {static_cast<unsigned char>(image.width >> 24), static_cast<unsigned char>(image.width >> 16),
-                                    static_cast<unsigned char>(image.width >> 8),  static_cast<unsigned char>(image.width),
-                                    static_cast<unsigned char>(image.height >> 24), static_cast<unsigned char>(image.height >> 16),
-                                    static_cast<unsigned char>(image.height >> 8),  static_cast<unsigned char>(image.height),
-                                    8, 2, 0, 0, 0};  // 8 bits, truecolour, deflate, adaptive filtering, no interlace
-  chunk("IHDR", header, sizeof(header));
-  const unsigned char srgb_intent = 0;  // perceptual: the pixels are sRGB
-  chunk("sRGB", &srgb_intent, 1);
-  // IDAT chunks of at most 1 MiB, as encoders commonly write them.
-  constexpr std::size_t kChunk = 1u << 20;
-  for (std::size_t at = 0; at < idat.size(); at += kChunk) chunk("IDAT", idat.data() + at, std::min(kChunk, idat.size() - at));
-  chunk("IEND", nullptr, 0);
-  return png;
+  idat.resize(idat.size() + 4);
+  store_be32(idat.data() + idat.size() - 4, static_cast<u32>(adler));
+  for (std::size_t at = 0; at < idat.size(); at += kChunk) write_png_chunk(file, "IDAT", idat.data() + at, std::min(kChunk, idat.size() - at));
+  write_png_chunk(file, "IEND", nullptr, 0);
 }
 
-void write_png(const std::string& file, const LinearImage& image) {
-  const std::vector<unsigned char> png = encode_png(image);
-  std::FILE* out = std::fopen(file.c_str(), "wb");
-  if (!out) throw std::runtime_error(fmt::format("cannot create the file: {}", std::strerror(errno)));
-  const bool written = std::fwrite(png.data(), 1, png.size(), out) == png.size() && std::fflush(out) == 0;
-  const int write_error = errno;
-  if (std::fclose(out) != 0 || !written) throw std::runtime_error(std::strerror(written ? errno : write_error));
+// Rows for the float formats are asked for in bands of about this many bytes.
+constexpr std::size_t kFloatBandBytes = 8u << 20;
+
+u32 float_band_rows(const ImageRows& image) {
+  return static_cast<u32>(std::max<std::size_t>(1, kFloatBandBytes / (3 * sizeof(float) * std::max<std::size_t>(1, image.width))));
 }
 
 // Portable float map: little-endian (negative scale), rows from the bottom.
-void write_pfm(const std::string& file, const LinearImage& image) {
-  std::ofstream out(file, std::ios::binary);
-  if (!out) throw std::runtime_error("cannot create the file");
-  out << "PF\n" << image.width << " " << image.height << "\n-1.0\n";
-  for (u32 row = image.height; row-- > 0;)
-    out.write(reinterpret_cast<const char*>(image.rgb.data() + static_cast<std::size_t>(row) * image.width * 3),
-              static_cast<std::streamsize>(image.width * 3 * sizeof(float)));
-  out.flush();
-  if (!out) throw std::runtime_error("writing failed");
+void write_pfm(AtomicFile& file, const ImageRows& image) {
+  file.write(fmt::format("PF\n{} {}\n-1.0\n", image.width, image.height));
+  const std::size_t row_floats = 3 * static_cast<std::size_t>(image.width);
+  const u32 band_rows = float_band_rows(image);
+  std::vector<float> band(row_floats * std::min(band_rows, image.height));
+  for (u32 end = image.height; end > 0;) {
+    const u32 first = end > band_rows ? end - band_rows : 0;
+    image.fill(first, end - first, band.data());
+    for (u32 row = end; row-- > first;) file.write(band.data() + (row - first) * row_floats, row_floats * sizeof(float));
+    end = first;
+  }
 }
 
-void write_exr(const std::string& file, const LinearImage& image) {
+// OpenEXR writes through this stream into the AtomicFile, so its writes are checked like every other format's.
+class ExrStream final : public Imf::OStream {
+ public:
+  explicit ExrStream(AtomicFile& file) : Imf::OStream(file.target().c_str()), file_(file) {}
+  void write(const char data[], int bytes) override { file_.write(data, static_cast<std::size_t>(bytes)); }
+  uint64_t tellp() override { return file_.position(); }
+  void seekp(uint64_t position) override { file_.seek(position); }
+
+ private:
+  AtomicFile& file_;
+};
+
+// OpenEXR, float RGB, given a band of scan lines at a time (the library copies each band as it is given).
+void write_exr(AtomicFile& file, const ImageRows& image) {
   Imf::Header header(static_cast<int>(image.width), static_cast<int>(image.height));
   for (const char* channel : {"R", "G", "B"}) header.channels().insert(channel, Imf::Channel(Imf::FLOAT));
-  Imf::OutputFile out(file.c_str(), header);
-  Imf::FrameBuffer frame;
+  ExrStream stream(file);
+  // The file's line-offset table is written when `out` is destroyed, where OpenEXR swallows errors: a failure
+  // there is still recorded by the AtomicFile, which then refuses to publish.
+  Imf::OutputFile out(stream, header);
   const std::size_t x_stride = 3 * sizeof(float), y_stride = x_stride * image.width;
-  char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
-  frame.insert("R", Imf::Slice(Imf::FLOAT, base, x_stride, y_stride));
-  frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), x_stride, y_stride));
-  frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), x_stride, y_stride));
-  out.setFrameBuffer(frame);
-  out.writePixels(static_cast<int>(image.height));
+  const u32 band_rows = float_band_rows(image);
+  std::vector<float> band(3 * static_cast<std::size_t>(image.width) * std::min(band_rows, image.height));
+  for (u32 first = 0; first < image.height; first += band_rows) {
+    const u32 rows = std::min(band_rows, image.height - first);
+    image.fill(first, rows, band.data());
+    // OpenEXR addresses a slice by absolute scan line: the base is where row 0 would be (never dereferenced).
+    const std::uintptr_t base = reinterpret_cast<std::uintptr_t>(band.data()) - first * y_stride;
+    Imf::FrameBuffer frame;
+    frame.insert("R", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(base), x_stride, y_stride));
+    frame.insert("G", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(base + sizeof(float)), x_stride, y_stride));
+    frame.insert("B", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(base + 2 * sizeof(float)), x_stride, y_stride));
+    out.setFrameBuffer(frame);
+    out.writePixels(static_cast<int>(rows));
+  }
 }
 
 }  // namespace
@@ -258,28 +306,25 @@ void check_output_path(const std::filesystem::path& path) {
   std::filesystem::remove(probe, error);
 }
 
-void write_image(const std::filesystem::path& path, const LinearImage& image) {
+AtomicFile write_image_unpublished(const std::filesystem::path& path, const ImageRows& image) {
   const ImageFormat format = image_format_for(path);
   check_output_path(path);  // again: the folder may have changed while the image was rendered
-  std::filesystem::path folder = path.parent_path();
-  if (folder.empty()) folder = ".";
-  std::error_code error;
-  // The temporary keeps the final extension (OpenEXR does not care, but viewers of a stray file would) and a
-  // name unique to this process.
-  std::random_device entropy;
-  const std::filesystem::path temporary =
-      folder / fmt::format(".{}.{}-{:08x}.tmp{}", path.filename().string(), getpid(), entropy(), path.extension().string());
+  AtomicFile file(path, "the image");
   try {
     switch (format) {
-      case ImageFormat::kPng: write_png(temporary.string(), image); break;
-      case ImageFormat::kPfm: write_pfm(temporary.string(), image); break;
-      case ImageFormat::kExr: write_exr(temporary.string(), image); break;
+      case ImageFormat::kPng: write_png(file, image); break;
+      case ImageFormat::kPfm: write_pfm(file, image); break;
+      case ImageFormat::kExr: write_exr(file, image); break;
     }
-    std::filesystem::rename(temporary, path);
   } catch (const std::exception& e) {
-    std::filesystem::remove(temporary, error);
-    throw InputError(fmt::format("{}: cannot write the image: {}", path.string(), e.what()));
+    file.fail(e.what());  // the file's own error where it failed first (OpenEXR wraps it in a message of its own)
   }
+  file.finish();
+  return file;
 }
+
+void write_image(const std::filesystem::path& path, const ImageRows& image) { write_image_unpublished(path, image).publish(); }
+
+void write_image(const std::filesystem::path& path, const LinearImage& image) { write_image(path, rows_of(image)); }
 
 }  // namespace pt

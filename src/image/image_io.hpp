@@ -2,8 +2,10 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <vector>
 
+#include "base/atomic_file.hpp"
 #include "kernel/platform.hpp"
 
 namespace pt {
@@ -13,6 +15,18 @@ struct LinearImage {
   u32 width = 0, height = 0;
   std::vector<float> rgb;
 };
+
+// An image handed to a writer a band of rows at a time: fill(first_row, row_count, rgb) puts rows
+// [first_row, first_row + row_count) into `rgb` as linear RGB, three floats per pixel. A render's film is written
+// this way, converted band by band, so that no full-size float copy of it is ever made. fill may be called from
+// several threads at once, for different rows.
+struct ImageRows {
+  u32 width = 0, height = 0;
+  std::function<void(u32 first_row, u32 row_count, float* rgb)> fill;
+};
+
+// The rows of an image held whole.
+ImageRows rows_of(const LinearImage& image);
 
 // An 8-bit texture as stored: three sRGB-encoded bytes per texel, rows from the top. Kernels decode a byte through
 // a 256-entry table (srgb_decode_table), which gives the same linear value as decoding at load time in a quarter
@@ -45,10 +59,15 @@ ImageFormat image_format_for(const std::filesystem::path& path);
 // ("PATH: cannot write the image: REASON").
 void check_output_path(const std::filesystem::path& path);
 
-// Writes the image to a temporary file beside `path` and renames it into place, so a failure never leaves a
-// half-written file under the final name. PNG is 8-bit sRGB (values clamped); PFM and OpenEXR keep linear floats.
-// Throws InputError when the file cannot be written.
+// Writes the image through an AtomicFile (base/atomic_file.hpp): a failure, a full disk included, never leaves a
+// half-written file under the final name nor replaces the file that was there. PNG is 8-bit sRGB (values clamped);
+// PFM and OpenEXR keep linear floats. Throws InputError ("PATH: cannot write the image: REASON").
+void write_image(const std::filesystem::path& path, const ImageRows& image);
 void write_image(const std::filesystem::path& path, const LinearImage& image);
+
+// write_image but for the rename: the image is complete and synced under its temporary name, and takes its place
+// when the caller publishes it (with other files, all or nothing).
+AtomicFile write_image_unpublished(const std::filesystem::path& path, const ImageRows& image);
 
 // The sRGB transfer functions.
 float srgb_to_linear(float encoded);

@@ -27,6 +27,8 @@ struct ImageKernelProbe {
 //  - kind(), description(): "cuda" and "GPU 0: NVIDIA H200, 132 SMs", for the backend's name.
 //  - host(): the device is the host's processor (a launch costs a fork and join of threads, so the megakernel
 //    gives each work item many samples, and the wavefront keeps a pool that fits the caches).
+//  - preferred_integrator(): what `--integrator auto` takes on it, the faster one as measured (BENCHMARKS.md).
+//  - memory_on_host(): its allocations are host memory the program may read directly (no copy back needed).
 //  - times_on_device(): the timers read the device's own clock (events), not the host's wall clock.
 //  - allocate(bytes, what) / release(pointer): device memory, aligned for any kernel struct.
 //  - copy_to_device, clear: ordered after the work queued before; the source must stay alive until the next
@@ -44,6 +46,7 @@ concept Device = requires(D& device, const D& view, void* pointer, const void* s
   { view.description() } -> std::convertible_to<std::string>;
   { view.host() } -> std::convertible_to<bool>;
   { view.preferred_integrator() } -> std::same_as<Integrator>;
+  { view.memory_on_host() } -> std::convertible_to<bool>;
   { view.times_on_device() } -> std::convertible_to<bool>;
   { device.allocate(bytes, what) } -> std::same_as<void*>;
   device.release(pointer);

@@ -55,6 +55,12 @@ class DeviceBackend final : public RenderBackend<T> {
     device_.copy_to_host(pixels.data(), film_, film_pixels_ * sizeof(FilmPixel), "reading the film back");
   }
 
+  std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) override {
+    if (!device_.memory_on_host()) return RenderBackend<T>::film_on_host(copy);
+    device_.synchronise("finishing the film");
+    return {film_, film_pixels_};
+  }
+
   std::optional<double> device_seconds() const override {
     if (!device_.times_on_device()) return std::nullopt;
     return wavefront_ ? wavefront_->seconds() : megakernel_ ? megakernel_->seconds() : 0.0;

@@ -30,6 +30,7 @@ class CpuDevice {
   bool host() const { return true; }
   // What `auto` takes here: on CPUs the megakernel is the faster (BENCHMARKS.md).
   Integrator preferred_integrator() const { return Integrator::kMegakernel; }
+  bool memory_on_host() const { return true; }
   bool times_on_device() const { return false; }
 
   void* allocate(std::size_t bytes, const char*) { return ::operator new(std::max<std::size_t>(bytes, 1), kAlignment); }

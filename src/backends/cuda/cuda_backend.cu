@@ -66,6 +66,7 @@ class CudaDevice {
   bool host() const { return false; }
   // What `auto` takes here: through nvcc the wavefront is the faster on the H200 (BENCHMARKS.md).
   Integrator preferred_integrator() const { return Integrator::kWavefront; }
+  bool memory_on_host() const { return false; }
   bool times_on_device() const { return true; }
 
   void* allocate(std::size_t bytes, const char* what) {

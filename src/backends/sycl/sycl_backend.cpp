@@ -103,6 +103,7 @@ class SyclDevice {
   // megakernel was the faster on every benchmark scene (its wavefront's intersect stage runs 4x slower than nvcc's;
   // docs/backends.md).
   Integrator preferred_integrator() const { return Integrator::kMegakernel; }
+  bool memory_on_host() const { return false; }  // device allocations, even on a CPU device
   bool times_on_device() const { return profiling_; }
 
   void* allocate(std::size_t bytes, const char* what) {
