@@ -1,12 +1,16 @@
 // The command line: `pathtracer render SCENE -o IMAGE` with overrides, `pathtracer numerics SCENE`, `pathtracer devices`,
 // --help, --version.
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <future>
 #include <numeric>
 #include <optional>
@@ -20,6 +24,8 @@
 #include "app/backends.hpp"
 #include "app/image_size.hpp"
 #include "app/numerics.hpp"
+#include "base/atomic_file.hpp"
+#include "film/checkpoint.hpp"
 #include "film/film.hpp"
 #include "base/number_formats.hpp"
 #include "scene/scene_loader.hpp"
@@ -49,6 +55,9 @@ struct RenderOptions {
   std::string integrator = "auto";
   bool quiet = false;
   bool verbose = false;  // render only: the time of each phase
+  std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
+  double checkpoint_interval = 60;
+  double time_limit = 0;
   u32 runs = 5;  // bench only
 };
 
@@ -97,6 +106,38 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   else if (options.width) check_image_size(settings.width, settings.height, fmt::format("--width {} with the scene's height {} ({})", settings.width, settings.height, scene.source));
   else if (options.height) check_image_size(settings.width, settings.height, fmt::format("--height {} with the scene's width {} ({})", settings.height, settings.width, scene.source));
   return settings;
+}
+
+// SIGINT or SIGTERM: the first asks the render to stop after the pass under way and write what it has; a second
+// ends the program at once, removing the temporaries of files being written. The status is 128 + the signal.
+std::atomic<int> interrupt_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free, "the signal handler needs a lock-free flag");
+
+extern "C" void on_interrupt(int signal) {
+  int none = 0;
+  if (interrupt_signal.compare_exchange_strong(none, signal)) return;
+  remove_temporaries_now();
+  _exit(128 + signal);
+}
+
+void catch_interrupts() {
+  struct sigaction action {};
+  action.sa_handler = on_interrupt;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;  // the file writes go on through the first signal
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+// What a saved film must match to be resumed: the scene file's bytes and every setting that decides a sample.
+CheckpointKey render_key(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
+  std::ifstream in(scene.source, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return checkpoint_key(text.str(),
+                        fmt::format("depth {} seed {} roulette {} format {}", settings.max_depth, settings.seed, settings.roulette_depth,
+                                    options.number_format),
+                        settings.width, settings.height);
 }
 
 using Clock = std::chrono::steady_clock;
@@ -153,8 +194,34 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
                settings.samples_per_pixel, settings.max_depth, flat.primitives.size(), backend->name(), options.number_format);
     if (flat.scale != 1) fmt::print(stderr, "lengths scaled by {:g} to fit {} (docs/numerics.md)\n", flat.scale, options.number_format);
   }
+  RenderControl control;
+  control.stop_requested = [] { return interrupt_signal.load() != 0; };
+  control.time_limit_seconds = options.time_limit;
+  const CheckpointKey key = render_key(options, scene, settings);
+  if (!options.checkpoint.empty()) {
+    control.checkpoint_interval_seconds = options.checkpoint_interval;
+    control.checkpoint = [&](std::span<const FilmPixel> pixels, u32 samples_done) { write_checkpoint(options.checkpoint, key, pixels, samples_done); };
+  }
+  Checkpoint resumed;
+  if (!options.resume.empty()) {
+    resumed = read_checkpoint(options.resume, key);
+    if (resumed.samples_done > settings.samples_per_pixel)
+      throw InputError(fmt::format("{}: cannot resume: it holds {} samples per pixel, more than the {} asked for", options.resume,
+                                   resumed.samples_done, settings.samples_per_pixel));
+    control.start_film = resumed.film;
+    control.start_samples = resumed.samples_done;
+    if (!options.quiet) fmt::print(stderr, "resuming {} at {} of {} samples per pixel\n", options.resume, resumed.samples_done, settings.samples_per_pixel);
+  }
   // The film is resolved band by band as the image is encoded, never copied whole (BENCHMARKS.md, memory).
-  const RenderedFilm film = render_film(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback());
+  const RenderedFilm film = render_film(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback(), control);
+  if (show_progress && film.stopped_early) fmt::print(stderr, "\n");
+  const int caught = interrupt_signal.load();
+  if (film.samples_done == 0) {
+    if (!options.quiet) fmt::print(stderr, "stopped before the first sample: nothing written\n");
+    return caught ? 128 + caught : 0;
+  }
+  // A render that ran to its end leaves its film too, so that it can be resumed to more samples.
+  if (!film.stopped_early && control.checkpoint) control.checkpoint(film.pixels(), film.samples_done);
   phases.add("upload", film.stats.upload_seconds);
   phases.add("render", film.stats.seconds);
   if (const std::optional<double> on_device = backend->device_seconds()) phases.add("  of which on the device", *on_device);
@@ -164,10 +231,13 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
     const RenderStats& s = film.stats;
     fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
                format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
+    if (film.stopped_early)
+      fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n", caught ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM") : "the time limit",
+                 film.samples_done, settings.samples_per_pixel, options.checkpoint.empty() ? "" : fmt::format("; film saved to {}", options.checkpoint));
     if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
   }
   if (options.verbose) phases.print(seconds_since(program_start));
-  return 0;
+  return caught ? 128 + caught : 0;
 }
 
 
@@ -175,6 +245,8 @@ int run_render(const RenderOptions& options, Clock::time_point program_start) {
   // Fail on an unusable output name or place before spending time on the render.
   image_format_for(options.output);
   check_output_path(options.output);
+  if (!options.checkpoint.empty()) check_output_path(options.checkpoint);
+  catch_interrupts();
   return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, program_start); });
 }
 
@@ -244,7 +316,8 @@ int main(int argc, char** argv) {
   // Command-line mistakes get the same one-line form and exit status as every other input error.
   app.failure_message([](const CLI::App*, const CLI::Error& e) { return std::string("pathtracer: error: ") + e.what() + "\n"; });
   app.footer(fmt::format("Exit status: 0 on success; {} on any error: bad input (command line, scene file, images, output place, a\n"
-                         "failed write) or a failing device, with one line 'pathtracer: error: ...' on stderr. Images are at most\n"
+                         "failed write) or a failing device, with one line 'pathtracer: error: ...' on stderr; 130 or 143 when a\n"
+                         "render stopped by SIGINT or SIGTERM has written what it had. Images are at most\n"
                          "{} pixels a side and {} pixels in all.",
                          kErrorExitCode, kMaxImageSide, kMaxImagePixels));
 
@@ -273,6 +346,13 @@ int main(int argc, char** argv) {
   render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
   render->add_flag("-v,--verbose", options.verbose, "Print the time of each phase (device start, scene load, BVH build, upload, render, read-back, encode)");
+  render->add_option("--time-limit", options.time_limit, "Stop after this many seconds of rendering and write the image so far")
+      ->check(CLI::PositiveNumber);
+  render->add_option("--checkpoint", options.checkpoint, "Save the film to this file now and then, when stopped, and at the end (resume it with --resume)");
+  render->add_option("--checkpoint-interval", options.checkpoint_interval, "Seconds between saves of the film")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  render->add_option("--resume", options.resume, "Go on from a film saved by --checkpoint (same scene and settings; --spp may be raised)");
   bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
 
   NumericsOptions numerics_options;

@@ -33,6 +33,9 @@ class RenderBackend {
   // Copies the film to the host (row-major, rows from the top).
   virtual void read_film(std::vector<FilmPixel>& pixels) = 0;
 
+  // Replaces the film (after upload, before render) with one read back earlier: a resumed render goes on from it.
+  virtual void write_film(std::span<const FilmPixel> pixels) = 0;
+
   // The film where the host can read it, valid until the next upload: the backend's own memory where that is host
   // memory (no copy: a large film would otherwise be held twice), else a copy read back into `copy`.
   virtual std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) {

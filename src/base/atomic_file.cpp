@@ -37,7 +37,36 @@ int injected_error(FileStep step, std::uint64_t bytes = 0) {
   return injected.error.load();
 }
 
+// The temporaries that exist now, by path, where a signal handler can reach them: a fixed table of plain buffers
+// (no allocation, no locks), a slot claimed with an atomic flag.
+constexpr int kTemporarySlots = 16;
+struct TemporarySlot {
+  std::atomic<bool> used{false};
+  char path[4096];
+};
+TemporarySlot temporary_slots[kTemporarySlots];
+
+int register_temporary(const std::string& path) {
+  if (path.size() >= sizeof(TemporarySlot::path)) return -1;
+  for (int i = 0; i < kTemporarySlots; ++i) {
+    bool expected = false;
+    if (temporary_slots[i].used.load() || !temporary_slots[i].used.compare_exchange_strong(expected, true)) continue;
+    std::memcpy(temporary_slots[i].path, path.c_str(), path.size() + 1);
+    return i;
+  }
+  return -1;  // more files open at once than slots: that one is not removed by a second interrupt
+}
+
+void unregister_temporary(int slot) {
+  if (slot >= 0) temporary_slots[slot].used.store(false);
+}
+
 }  // namespace
+
+void remove_temporaries_now() noexcept {
+  for (TemporarySlot& slot : temporary_slots)
+    if (slot.used.load()) ::unlink(slot.path);
+}
 
 void inject_file_failure(FileStep step, int error, std::uint64_t after_bytes) {
   injected.error = error;
@@ -60,6 +89,7 @@ AtomicFile::AtomicFile(std::filesystem::path target, std::string what) : target_
     throw InputError(fmt::format("{}: cannot write {}: cannot create a file in '{}': {}", target_.string(), what_, folder.string(),
                                  std::strerror(error)));
   }
+  temporary_slot_ = register_temporary(temporary_.string());
   buffer_.reserve(kBufferBytes);
 }
 
@@ -71,16 +101,19 @@ AtomicFile::AtomicFile(AtomicFile&& other) noexcept
       buffer_(std::move(other.buffer_)),
       position_(other.position_),
       failure_(std::move(other.failure_)),
-      published_(std::exchange(other.published_, true)) {}
+      published_(std::exchange(other.published_, true)),
+      temporary_slot_(std::exchange(other.temporary_slot_, -1)) {}
 
 AtomicFile::~AtomicFile() {
   if (!published_) remove_temporary();
+  unregister_temporary(temporary_slot_);
 }
 
 void AtomicFile::remove_temporary() noexcept {
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   if (!temporary_.empty()) ::unlink(temporary_.c_str());
+  unregister_temporary(std::exchange(temporary_slot_, -1));
 }
 
 void AtomicFile::fail(const std::string& reason) {
@@ -143,6 +176,7 @@ void AtomicFile::publish() {
   const int rename_error = injected_error(FileStep::kRename);
   if (rename_error || ::rename(temporary_.c_str(), target_.c_str()) != 0) fail(std::strerror(rename_error ? rename_error : errno));
   published_ = true;
+  unregister_temporary(std::exchange(temporary_slot_, -1));
   // The new name made durable as well. Best effort: the file is in place already, and a folder that cannot be
   // opened or synced changes nothing about its content.
   std::filesystem::path folder = target_.parent_path();

@@ -56,7 +56,12 @@ class AtomicFile {
   std::uint64_t position_ = 0;
   std::string failure_;  // the first error; non-empty: the file is never published
   bool published_ = false;
+  int temporary_slot_ = -1;  // where remove_temporaries_now() finds the temporary
 };
+
+// Removes every temporary of the AtomicFiles alive now. Safe in a signal handler (it only calls unlink): an
+// interrupt that ends the program at once leaves no temporary behind.
+void remove_temporaries_now() noexcept;
 
 // `content` written to an AtomicFile for `target` and finished: it takes its place when published.
 AtomicFile write_file_unpublished(const std::filesystem::path& target, const std::string& what, const std::string& content);

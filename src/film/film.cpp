@@ -55,36 +55,62 @@ RenderStats film_stats(std::span<const FilmPixel> film, u32 samples_per_pixel) {
 }
 
 template <class T>
-RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress) {
+RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress, const RenderControl& control) {
   using Clock = std::chrono::steady_clock;
   const auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   const auto upload_start = Clock::now();
   backend.upload(scene);
-  const double upload_seconds = seconds_since(upload_start);
   const u32 total = scene.samples_per_pixel;
+  u32 done = 0;
+  if (!control.start_film.empty()) {
+    backend.write_film(control.start_film);
+    done = std::min(control.start_samples, total);
+  }
+  const double upload_seconds = seconds_since(upload_start);
   const double pixels = static_cast<double>(scene.params.width) * scene.params.height;
   const auto start = Clock::now();
-  u32 done = 0, pass = 1;
+  auto last_checkpoint = start;
+  const u32 first = done;
+  u32 pass = 1;
+  bool stopped = false;
+  std::vector<FilmPixel> saved;
+  const auto save = [&] {
+    if (!control.checkpoint) return;
+    control.checkpoint(backend.film_on_host(saved), done);
+    last_checkpoint = Clock::now();
+  };
   while (done < total) {
+    if ((control.stop_requested && control.stop_requested()) ||
+        (control.time_limit_seconds > 0 && seconds_since(start) >= control.time_limit_seconds)) {
+      stopped = true;
+      break;
+    }
     pass = std::min(pass, total - done);
     backend.render(done, pass);
     done += pass;
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-    const double rate = elapsed > 0 ? done * pixels / elapsed : 0;
+    const double rate = elapsed > 0 ? (done - first) * pixels / elapsed : 0;
     if (progress) progress(Progress{done, total, elapsed, rate});
-    // Aim for passes of about half a second: often enough to report, rarely enough to cost nothing.
-    const double per_sample = elapsed / done;
-    const double wanted = per_sample > 0 ? 0.5 / per_sample : 2.0 * pass;
+    if (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds) save();
+    // Aim for passes of about half a second: often enough to report and to stop, rarely enough to cost nothing;
+    // and none that runs far past a time limit.
+    const double per_sample = elapsed / (done - first);
+    double wanted = per_sample > 0 ? 0.5 / per_sample : 2.0 * pass;
+    if (control.time_limit_seconds > 0 && per_sample > 0) wanted = std::min(wanted, (control.time_limit_seconds - elapsed) / per_sample);
     pass = static_cast<u32>(std::clamp(wanted, 1.0, std::max(1.0, 4.0 * pass)));
   }
+  if (stopped) save();
   const double render_seconds = seconds_since(start);
   RenderedFilm film;
+  film.samples_done = done;
+  film.stopped_early = stopped;
   film.width = scene.params.width;
   film.height = scene.params.height;
   const auto read_start = Clock::now();
   film.on_backend = backend.film_on_host(film.copy);
   if (film.on_backend.data() == film.copy.data()) film.on_backend = {};  // the copy it is
-  film.stats = film_stats(film.pixels(), total);
+  film.stats = film_stats(film.pixels(), done);
+  film.stats.samples = static_cast<u64>(film.pixels().size()) * (done - first);  // traced by this run
   film.stats.saturations = backend.saturations();
   film.stats.seconds = render_seconds;
   film.stats.upload_seconds = upload_seconds;
@@ -105,7 +131,8 @@ RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, 
 }
 
 #define PT_INSTANTIATE_RENDER(...)                                                                                                     \
-  template RenderedFilm render_film<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&); \
+  template RenderedFilm render_film<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&, \
+                                                 const RenderControl&);                                                           \
   template RenderResult render_scene<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_RENDER)
 

@@ -29,6 +29,18 @@ struct Progress {
 
 using ProgressCallback = std::function<void(const Progress&)>;
 
+// How a render may end before all its samples, save its film on the way, and start from a saved one. Everything
+// is checked between passes (about half a second apart), so a stop takes effect within about a second.
+struct RenderControl {
+  std::function<bool()> stop_requested;      // an interrupt: stop after the pass under way
+  double time_limit_seconds = 0;             // > 0: stop once the passes have taken this long
+  double checkpoint_interval_seconds = 0;    // > 0 (with `checkpoint`): save the film about this often
+  // Called with the film and its samples per pixel every interval and when the render stops early.
+  std::function<void(std::span<const FilmPixel>, u32 samples_done)> checkpoint;
+  std::span<const FilmPixel> start_film;     // a resumed render: the film to go on from, holding
+  u32 start_samples = 0;                     // this many samples per pixel
+};
+
 // The mean of each pixel's finite samples (black where a pixel has none).
 LinearImage resolve_film(std::span<const FilmPixel> film, u32 width, u32 height);
 
@@ -41,6 +53,8 @@ struct RenderedFilm {
   std::span<const FilmPixel> on_backend;
   std::vector<FilmPixel> copy;
   u32 width = 0, height = 0;
+  u32 samples_done = 0;        // per pixel: all of the scene's, or fewer where the render was stopped
+  bool stopped_early = false;  // by an interrupt or the time limit
   RenderStats stats;
   std::span<const FilmPixel> pixels() const { return copy.empty() ? on_backend : std::span<const FilmPixel>(copy); }
 };
@@ -55,9 +69,11 @@ struct RenderResult {
 };
 
 // Uploads the scene and renders all its samples per pixel, in passes sized to report progress about twice a
-// second. The image does not depend on the pass sizes.
+// second. The image does not depend on the pass sizes, nor on where a render was stopped and resumed: samples are
+// added to each pixel in order.
 template <class T>
-RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress = {});
+RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress = {},
+                         const RenderControl& control = {});
 
 // render_film, resolved into an image.
 template <class T>

@@ -50,6 +50,12 @@ class DeviceBackend final : public RenderBackend<T> {
     else megakernel_->render(first_sample, sample_count);
   }
 
+  void write_film(std::span<const FilmPixel> pixels) override {
+    if (pixels.size() != film_pixels_) throw BackendError("a film of another size cannot be resumed");
+    device_.copy_to_device(film_, pixels.data(), film_pixels_ * sizeof(FilmPixel), "restoring the film");
+    device_.synchronise("restoring the film");
+  }
+
   void read_film(std::vector<FilmPixel>& pixels) override {
     pixels.resize(film_pixels_);
     device_.copy_to_host(pixels.data(), film_, film_pixels_ * sizeof(FilmPixel), "reading the film back");

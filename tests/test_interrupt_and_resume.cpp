@@ -1,0 +1,212 @@
+// Stopping a render early and going on later: interrupts, the time limit, saved films and resumed renders.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "film/checkpoint.hpp"
+#include "film/film.hpp"
+#include "test_support.hpp"
+
+extern char** environ;
+
+namespace pt {
+namespace {
+
+// A film rendered to the end in one go, and the same film stopped after its first pass, saved, and resumed by a new
+// backend: the sums are the same bit for bit, since every pixel's samples are added in order either way.
+void expect_resume_is_bitwise_equal(Integrator integrator) {
+  const FlatScene<float> scene = test::tiny_reference_scene<float>(9, 3);
+  const auto whole_backend = make_cpu_backend<float>(2, integrator);
+  const RenderedFilm whole = render_film(*whole_backend, scene);
+  const std::vector<FilmPixel> whole_pixels(whole.pixels().begin(), whole.pixels().end());
+  EXPECT_EQ(whole.samples_done, 9u);
+  EXPECT_FALSE(whole.stopped_early);
+
+  std::vector<FilmPixel> saved;
+  u32 saved_samples = 0;
+  int passes = 0;
+  RenderControl stop_after_one_pass;
+  stop_after_one_pass.stop_requested = [&] { return passes++ > 0; };
+  stop_after_one_pass.checkpoint = [&](std::span<const FilmPixel> pixels, u32 samples) {
+    saved.assign(pixels.begin(), pixels.end());
+    saved_samples = samples;
+  };
+  const auto first_backend = make_cpu_backend<float>(2, integrator);
+  const RenderedFilm part = render_film(*first_backend, scene, {}, stop_after_one_pass);
+  EXPECT_TRUE(part.stopped_early);
+  ASSERT_GT(part.samples_done, 0u);
+  ASSERT_LT(part.samples_done, 9u);
+  EXPECT_EQ(saved_samples, part.samples_done) << "a stopped render saves its film";
+  EXPECT_EQ(part.stats.samples, static_cast<u64>(saved.size()) * part.samples_done);
+
+  RenderControl resume;
+  resume.start_film = saved;
+  resume.start_samples = saved_samples;
+  const auto second_backend = make_cpu_backend<float>(2, integrator);
+  const RenderedFilm rest = render_film(*second_backend, scene, {}, resume);
+  EXPECT_EQ(rest.samples_done, 9u);
+  EXPECT_TRUE(test::same_film(std::vector<FilmPixel>(rest.pixels().begin(), rest.pixels().end()), whole_pixels));
+}
+
+TEST(ResumedRender, MegakernelFilmIsBitwiseEqualToAnUninterruptedOne) { expect_resume_is_bitwise_equal(Integrator::kMegakernel); }
+TEST(ResumedRender, WavefrontFilmIsBitwiseEqualToAnUninterruptedOne) { expect_resume_is_bitwise_equal(Integrator::kWavefront); }
+
+TEST(ResumedRender, TimeLimitStopsEarly) {
+  const FlatScene<float> scene = test::tiny_reference_scene<float>(1000000, 3);
+  RenderControl control;
+  control.time_limit_seconds = 0.2;
+  const auto backend = make_cpu_backend<float>(2, Integrator::kMegakernel);
+  const auto start = std::chrono::steady_clock::now();
+  const RenderedFilm film = render_film(*backend, scene, {}, control);
+  EXPECT_TRUE(film.stopped_early);
+  EXPECT_LT(film.samples_done, 1000000u);
+  // Generous: the point is that a million samples per pixel were not all rendered (minutes).
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30.0);
+}
+
+TEST(Checkpoint, RoundTripsAndRefusesAnotherSceneSizeOrSettings) {
+  test::TempDir dir;
+  const CheckpointKey key = checkpoint_key("{\"scene\": 1}", "depth 5 seed 1", 3, 2);
+  std::vector<FilmPixel> film(6);
+  for (std::size_t i = 0; i < film.size(); ++i) film[i] = FilmPixel{0.1 * i, 0.2, 0.3, static_cast<u32>(i), 7};
+  write_checkpoint(dir / "a.film", key, film, 5);
+  const Checkpoint back = read_checkpoint(dir / "a.film", key);
+  EXPECT_EQ(back.samples_done, 5u);
+  EXPECT_TRUE(test::same_film(back.film, film));
+
+  const auto refused = [&](const CheckpointKey& other, const std::string& expected) {
+    try {
+      read_checkpoint(dir / "a.film", other);
+      ADD_FAILURE() << "accepted a checkpoint for another render";
+    } catch (const InputError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("a.film"), std::string::npos) << message;
+      EXPECT_NE(message.find(expected), std::string::npos) << message;
+    }
+  };
+  refused(checkpoint_key("{\"scene\": 2}", "depth 5 seed 1", 3, 2), "another scene");
+  refused(checkpoint_key("{\"scene\": 1}", "depth 5 seed 2", 3, 2), "other settings");
+  refused(checkpoint_key("{\"scene\": 1}", "depth 5 seed 1", 2, 3), "2x3");
+}
+
+TEST(Checkpoint, CutShortOrForeignFileIsRefused) {
+  test::TempDir dir;
+  const CheckpointKey key = checkpoint_key("scene", "settings", 4, 4);
+  write_checkpoint(dir / "a.film", key, std::vector<FilmPixel>(16), 1);
+  std::filesystem::resize_file(dir / "a.film", std::filesystem::file_size(dir / "a.film") - 1);
+  EXPECT_THROW(read_checkpoint(dir / "a.film", key), InputError);
+  test::write_text_file(dir / "b.film", "not a film at all, but long enough to hold a header");
+  EXPECT_THROW(read_checkpoint(dir / "b.film", key), InputError);
+  EXPECT_THROW(read_checkpoint(dir / "missing.film", key), InputError);
+}
+
+#ifdef PT_PATHTRACER_BINARY
+// No temporary of the atomic writer (hidden files ending in .tmp plus an extension) left in the folder.
+bool temporaries_left(const std::filesystem::path& folder) {
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    if (entry.path().filename().string().find(".tmp") != std::string::npos) return true;
+  return false;
+}
+
+TEST(ResumedRender, TimeLimitThenResumeGivesTheSameImageFile) {
+  test::TempDir dir;
+  const std::string scene = test::quoted(test::scene_path("book1-final.json"));
+  const std::string size = " --width 48 --height 27 --spp 12 --threads 2 ";
+  ASSERT_EQ(test::run_pathtracer("render " + scene + size + "-o " + test::quoted(dir / "whole.pfm"), dir).exit_code, 0);
+  const test::CommandResult part = test::run_pathtracer(
+      "render " + scene + size + "--time-limit 0.000001 --checkpoint " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "part.pfm"), dir);
+  ASSERT_EQ(part.exit_code, 0) << part.err;
+  EXPECT_NE(part.err.find("stopped by the time limit after 1 of 12 samples per pixel"), std::string::npos) << part.err;
+  const test::CommandResult rest =
+      test::run_pathtracer("render " + scene + size + "--resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "rest.pfm"), dir);
+  ASSERT_EQ(rest.exit_code, 0) << rest.err;
+  EXPECT_EQ(test::read_text_file(dir / "rest.pfm"), test::read_text_file(dir / "whole.pfm")) << "the resumed image differs";
+  // Resumed with another seed: refused, one line naming the file, no image.
+  const test::CommandResult other = test::run_pathtracer(
+      "render " + scene + size + "--seed 99 --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "other.pfm"), dir);
+  EXPECT_EQ(other.exit_code, 1);
+  EXPECT_NE(other.err.find("cannot resume"), std::string::npos) << other.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "other.pfm"));
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+
+// Starts the program in the background on a render that would take hours; returns its process id.
+pid_t start_long_render(const test::TempDir& dir, const std::string& extra) {
+  const std::string command = "exec '" + test::pathtracer_binary() + "' render " + test::quoted(test::scene_path("book1-final.json")) +
+                              " --width 64 --height 36 --spp 1000000 --threads 2 -o " + test::quoted(dir / "image.pfm") + extra + " 2> " +
+                              test::quoted(dir / "stderr.txt");
+  const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+  pid_t pid = -1;
+  EXPECT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ), 0);
+  return pid;
+}
+
+// Waits for the first line the program prints (the render has begun), at most `seconds`.
+void wait_for_start(const test::TempDir& dir, double seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  while (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < seconds) {
+    if (std::filesystem::exists(dir / "stderr.txt") && std::filesystem::file_size(dir / "stderr.txt") > 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // into the passes
+}
+
+// The exit status of `pid`, waiting at most `seconds` (then killed: -1).
+int exit_status_within(pid_t pid, double seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  int status = 0;
+  while (waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(Interrupt, SigintWritesThePartialImageAndItsFilmAndExits130) {
+  test::TempDir dir;
+  const pid_t pid = start_long_render(dir, " --checkpoint " + test::quoted(dir / "film"));
+  wait_for_start(dir, 60);
+  kill(pid, SIGINT);
+  EXPECT_EQ(exit_status_within(pid, 60), 130);
+  const std::string err = test::read_text_file(dir / "stderr.txt");
+  EXPECT_NE(err.find("stopped by an interrupt (SIGINT) after"), std::string::npos) << err;
+  const LinearImage image = test::read_pfm(dir / "image.pfm");
+  EXPECT_EQ(image.width, 64u);
+  EXPECT_EQ(image.height, 36u);
+  EXPECT_TRUE(std::filesystem::exists(dir / "film"));
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+
+TEST(Interrupt, SigtermExits143) {
+  test::TempDir dir;
+  const pid_t pid = start_long_render(dir, "");
+  wait_for_start(dir, 60);
+  kill(pid, SIGTERM);
+  EXPECT_EQ(exit_status_within(pid, 60), 143);
+  EXPECT_TRUE(std::filesystem::exists(dir / "image.pfm"));
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+
+TEST(Interrupt, SecondInterruptEndsAtOnceWithoutTemporaries) {
+  test::TempDir dir;
+  const pid_t pid = start_long_render(dir, "");
+  wait_for_start(dir, 60);
+  kill(pid, SIGINT);
+  kill(pid, SIGINT);
+  EXPECT_EQ(exit_status_within(pid, 60), 130);
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+#endif
+
+}  // namespace
+}  // namespace pt
