@@ -346,7 +346,7 @@ int main(int argc, char** argv) {
   render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
   render->add_flag("-v,--verbose", options.verbose, "Print the time of each phase (device start, scene load, BVH build, upload, render, read-back, encode)");
-  render->add_option("--time-limit", options.time_limit, "Stop after this many seconds of rendering and write the image so far")
+  render->add_option("--time-limit", options.time_limit, "Stop after this many seconds of rendering (at least one pass) and write the image so far")
       ->check(CLI::PositiveNumber);
   render->add_option("--checkpoint", options.checkpoint, "Save the film to this file now and then, when stopped, and at the end (resume it with --resume)");
   render->add_option("--checkpoint-interval", options.checkpoint_interval, "Seconds between saves of the film")

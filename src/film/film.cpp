@@ -80,8 +80,9 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     last_checkpoint = Clock::now();
   };
   while (done < total) {
+    // A time limit stops a render only after it has made a pass, so that even a tiny limit leaves an image.
     if ((control.stop_requested && control.stop_requested()) ||
-        (control.time_limit_seconds > 0 && seconds_since(start) >= control.time_limit_seconds)) {
+        (control.time_limit_seconds > 0 && done > first && seconds_since(start) >= control.time_limit_seconds)) {
       stopped = true;
       break;
     }
