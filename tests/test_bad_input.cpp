@@ -528,6 +528,30 @@ TEST(SceneFileErrors, ImageSizeIsCheckedFromTheHeaderBeforeDecoding) {
   }
 }
 
+TEST(SceneFileErrors, JpegHuffmanTableOfMoreThan256CodesIsRefused) {
+  // A DHT segment whose 16 code counts add up to 512: stb_image 2.27 wrote the table's code lengths and values past
+  // their arrays (found by fuzz/fuzz_texture_image). The file is refused before stb_image reads it.
+  std::string bytes = "\xff\xd8\xff\xc4";
+  const unsigned length = 2 + 17 + 512;
+  bytes += static_cast<char>(length >> 8);
+  bytes += static_cast<char>(length & 0xff);
+  bytes += '\0';                // DC table 0
+  bytes += std::string(16, 32);  // 32 codes of each length from 1 to 16
+  bytes += std::string(512, '\0');
+  bytes += "\xff\xd9";
+  test::TempDir dir;
+  test::write_text_file(dir / "huffman.jpg", bytes);
+  const std::filesystem::path file = scene_with_image(dir, "huffman.jpg");
+  try {
+    load_scene_file(file);
+    FAIL();
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind(file.string() + ":4:", 0), 0u) << message;
+    EXPECT_NE(message.find("huffman.jpg': corrupt JPEG (a Huffman table of more than 256 codes)"), std::string::npos) << message;
+  }
+}
+
 // ---- the command-line program ----
 
 class CommandLineErrors : public ::testing::Test {

@@ -229,6 +229,39 @@ TEST(TextureImages, PngKeepsItsSrgbBytesAndDecodesToLinear) {
   }
 }
 
+// Every channel layout reads as RGB the way stb_image converts it: grey repeated, alpha dropped. A 16-bit grey PGM
+// once read past stb_image's buffer (found by fuzz/fuzz_texture_image). Its 16-bit samples have equal bytes here:
+// the system's stb_image (2.27) reads them little-endian, not big-endian as Netpbm has them.
+TEST(TextureImages, GreyAlphaAndSixteenBitFilesReadAsRgb) {
+  test::TempDir dir;
+  const std::string grey16 = std::string("P5\n3 1\n65535\n") + std::string("\x12\x12\xab\xab\xff\xff", 6);
+  test::write_text_file(dir / "grey16.pgm", grey16);
+  TextureImage image = read_texture_image(dir / "grey16.pgm");
+  ASSERT_EQ(image.width, 3u);
+  ASSERT_EQ(image.height, 1u);
+  EXPECT_EQ(image.srgb, (std::vector<u8>{0x12, 0x12, 0x12, 0xab, 0xab, 0xab, 0xff, 0xff, 0xff}));
+  const std::string rgb16 = std::string("P6\n1 1\n65535\n") + std::string("\x12\x12\xab\xab\xff\xff", 6);
+  test::write_text_file(dir / "rgb16.ppm", rgb16);
+  image = read_texture_image(dir / "rgb16.ppm");
+  EXPECT_EQ(image.srgb, (std::vector<u8>{0x12, 0xab, 0xff}));
+  const std::string grey8 = std::string("P5\n2 1\n255\n") + std::string("\x07\xf0", 2);
+  test::write_text_file(dir / "grey8.pgm", grey8);
+  image = read_texture_image(dir / "grey8.pgm");
+  EXPECT_EQ(image.srgb, (std::vector<u8>{0x07, 0x07, 0x07, 0xf0, 0xf0, 0xf0}));
+  // 24-bit TGA (bottom-up, BGR) and 32-bit TGA with alpha: 2x1 texels each.
+  const auto tga = [](int bits, const std::string& pixels) {
+    std::string header(18, '\0');
+    header[2] = 2;  // uncompressed true colour
+    header[12] = 2;
+    header[14] = 1;
+    header[16] = static_cast<char>(bits);
+    return header + pixels;
+  };
+  test::write_text_file(dir / "rgba.tga", tga(32, std::string("\x03\x02\x01\x80\x30\x20\x10\x00", 8)));
+  image = read_texture_image(dir / "rgba.tga");
+  EXPECT_EQ(image.srgb, (std::vector<u8>{0x01, 0x02, 0x03, 0x10, 0x20, 0x30}));
+}
+
 TEST(TextureImages, SrgbCurvesAreInverse) {
   for (int i = 0; i <= 1000; ++i) {
     const float x = i / 1000.0f;

@@ -2,6 +2,7 @@
 #include "image/image_io.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <zlib.h>
@@ -56,6 +57,42 @@ bool png_header_size(int fd, u64& width, u64& height) {
   return true;
 }
 
+// The system's stb_image (2.27) writes past its Huffman tables when a JPEG's DHT segment declares more than 256
+// codes in one table (it sums the 16 counts but does not check the sum; later versions refuse it). Every place stb
+// could take for a DHT marker is a 0xFF byte followed by 0xC4 (fill bytes 0xFF before a marker included, in the
+// headers and between scans alike), so each is checked here, tables as stb reads them, before stb sees the file.
+// Returns false for such a file. Only files starting with 0xFF, as every JPEG does, are read.
+bool jpeg_huffman_tables_fit(int fd) {
+  unsigned char first = 0;
+  if (::pread(fd, &first, 1, 0) != 1 || first != 0xFF) return true;
+  struct stat status {};
+  if (::fstat(fd, &status) != 0 || status.st_size <= 0) return true;
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(status.st_size));
+  std::size_t got = 0;
+  while (got < bytes.size()) {
+    const ssize_t n = ::pread(fd, bytes.data() + got, bytes.size() - got, static_cast<off_t>(got));
+    if (n <= 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  bytes.resize(got);
+  const auto at = [&](std::size_t i) -> unsigned { return i < bytes.size() ? bytes[i] : 0u; };  // stb reads 0 past the end
+  for (std::size_t marker = 0; marker + 1 < bytes.size(); ++marker) {
+    if (bytes[marker] != 0xFF || bytes[marker + 1] != 0xC4) continue;
+    std::size_t pos = marker + 2;
+    long length = static_cast<long>((at(pos) << 8) | at(pos + 1)) - 2;
+    pos += 2;
+    while (length > 0 && pos < bytes.size()) {
+      ++pos;  // table class and number
+      unsigned codes = 0;
+      for (int i = 0; i < 16; ++i) codes += at(pos++);
+      if (codes > 256) return false;
+      pos += codes;
+      length -= 17 + static_cast<long>(codes);
+    }
+  }
+  return true;
+}
+
 void check_texture_size(const std::filesystem::path& path, u64 width, u64 height) {
   if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxTextureTexels)
     throw InputError(fmt::format("image file '{}' is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
@@ -77,6 +114,8 @@ TextureImage read_texture_image(const std::filesystem::path& path) {
   // The size is checked from the header, before anything is decoded: a small file can claim an image of gigabytes.
   u64 png_width = 0, png_height = 0;
   if (png_header_size(input.descriptor(), png_width, png_height)) check_texture_size(path, png_width, png_height);
+  if (!jpeg_huffman_tables_fit(input.descriptor()))
+    throw InputError(fmt::format("cannot read image file '{}': corrupt JPEG (a Huffman table of more than 256 codes)", path.string()));
   std::FILE* file = ::fdopen(input.descriptor(), "rb");
   if (!file) throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), std::strerror(errno)));
   input.release();
@@ -87,16 +126,25 @@ TextureImage read_texture_image(const std::filesystem::path& path) {
     throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), reason ? reason : "unknown format"));
   }
   check_texture_size(path, static_cast<u64>(width), static_cast<u64>(height));
-  unsigned char* pixels = stbi_load_from_file(file, &width, &height, &channels, 3);
+  // Decoded with the file's own channels and expanded to RGB here, as stb_image would (grey repeated, alpha
+  // dropped): the system's stb_image (2.27) converts a 16-bit grey PGM to RGB as if it had 8-bit samples and then
+  // reads past the converted buffer.
+  unsigned char* pixels = stbi_load_from_file(file, &width, &height, &channels, 0);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot decode image file '{}': {}", path.string(), reason ? reason : "unknown error"));
   }
+  const std::unique_ptr<unsigned char, void (*)(void*)> owned_pixels(pixels, &stbi_image_free);
+  if (channels < 1 || channels > 4)
+    throw InputError(fmt::format("cannot decode image file '{}': {} channels", path.string(), channels));
   TextureImage image;
   image.width = static_cast<u32>(width);
   image.height = static_cast<u32>(height);
-  image.srgb.assign(pixels, pixels + static_cast<std::size_t>(width) * height * 3);
-  stbi_image_free(pixels);
+  const std::size_t texels = static_cast<std::size_t>(width) * height;
+  image.srgb.resize(3 * texels);
+  const int colour = channels >= 3 ? 3 : 1;  // grey (and alpha) or RGB (and alpha)
+  for (std::size_t i = 0; i < texels; ++i)
+    for (int c = 0; c < 3; ++c) image.srgb[3 * i + c] = pixels[channels * i + (colour == 3 ? c : 0)];
   return image;
 }
 
