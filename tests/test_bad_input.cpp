@@ -44,6 +44,17 @@ std::string replaced(const std::string& text, const std::string& from, const std
 std::string with_object(const std::string& object) { return replaced(kBase, "OBJECT", object); }
 std::string with(const std::string& from, const std::string& to) { return replaced(with_object(kValidObject), from, to); }
 
+// The message of the InputError that parsing `text` throws (a failure, and "", where it is accepted).
+std::string parse_error(const std::string& text) {
+  try {
+    test::parse(text, kSource);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
 struct BadScene {
   std::string name;
   std::string text;
@@ -262,14 +273,10 @@ TEST(NumberOverflow, LiteralBeyondDoubleRangeIsAnInputErrorNamingFileLineColumnA
 TEST(JsonPointerEscaping, KeysWithSlashAreEscapedAndPositioned) {
   const std::string text = with(R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]})",
                                 R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]}, "a/b": {"type": "dielectric", "ior": -1})");
-  try {
-    test::parse(text, kSource);
-    FAIL() << "accepted";
-  } catch (const InputError& e) {
-    const TextPosition at = position_of(text, R"("ior": ^-1)");
-    EXPECT_EQ(std::string(e.what()).rfind(kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": /materials/a~1b/ior: ", 0), 0u)
-        << e.what();
-  }
+  const std::string message = parse_error(text);
+  const TextPosition at = position_of(text, R"("ior": ^-1)");
+  EXPECT_EQ(message.rfind(kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": /materials/a~1b/ior: ", 0), 0u)
+      << message;
 }
 
 // The parser's cost is bounded by its input: nesting beyond the limit is refused where it starts, before anything
@@ -277,24 +284,16 @@ TEST(JsonPointerEscaping, KeysWithSlashAreEscapedAndPositioned) {
 TEST(ParserBounds, NestingBeyondTheLimitIsRefusedWithFileLineAndColumn) {
   const std::size_t depth = 2000;
   const std::string text = R"({"render": )" + std::string(depth, '[') + std::string(depth, ']') + "}";
-  try {
-    test::parse(text, kSource);
-    FAIL() << "accepted";
-  } catch (const InputError& e) {
-    // The top-level object and 255 arrays are the 256 levels allowed; the next '[' (column 12 + 255) is refused.
-    EXPECT_EQ(std::string(e.what()), kSource + ":1:267: invalid JSON: arrays and objects nested more than 256 deep");
-  }
+  const std::string message = parse_error(text);
+  // The top-level object and 255 arrays are the 256 levels allowed; the next '[' (column 12 + 255) is refused.
+  EXPECT_EQ(message, kSource + ":1:267: invalid JSON: arrays and objects nested more than 256 deep");
 }
 
 TEST(ParserBounds, NestingAtTheLimitIsParsed) {
   // 256 levels in all: past the syntax check, to the reader, which finds an unknown key.
   const std::string text = R"({"render": )" + std::string(255, '[') + std::string(255, ']') + "}";
-  try {
-    test::parse(text, kSource);
-    FAIL() << "accepted";
-  } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), kSource + ":1:12: /render: expected an object, found an array");
-  }
+  const std::string message = parse_error(text);
+  EXPECT_EQ(message, kSource + ":1:12: /render: expected an object, found an array");
 }
 
 TEST(ParserBounds, AnEntryWithTooManyValuesIsRefusedWhereTheLimitIsPassed) {
@@ -303,14 +302,9 @@ TEST(ParserBounds, AnEntryWithTooManyValuesIsRefusedWhereTheLimitIsPassed) {
   std::string numbers;
   for (int i = 0; i < 200000; ++i) numbers += i ? ", 0" : "0";
   const std::string text = with_object(R"({"type": "sphere", "center": [)" + numbers + R"(], "radius": 1, "material": "white"})");
-  try {
-    test::parse(text, kSource);
-    FAIL() << "accepted";
-  } catch (const InputError& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.rfind(kSource + ":8:", 0), 0u) << message.substr(0, 200);
-    EXPECT_NE(message.find("/objects/1/center/99997: more than 100000 JSON values in one entry of a list"), std::string::npos) << message.substr(0, 200);
-  }
+  const std::string message = parse_error(text);
+  EXPECT_EQ(message.rfind(kSource + ":8:", 0), 0u) << message.substr(0, 200);
+  EXPECT_NE(message.find("/objects/1/center/99997: more than 100000 JSON values in one entry of a list"), std::string::npos) << message.substr(0, 200);
 }
 
 TEST(ParserBounds, ErrorsInLaterListEntriesAreLocatedAsBefore) {
@@ -319,14 +313,9 @@ TEST(ParserBounds, ErrorsInLaterListEntriesAreLocatedAsBefore) {
   const std::string text = with(R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]})",
                                 R"("white": {"type": "metal", "albedo": [1, 1, 1]},
     "white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8], "fuzz": 1})");
-  try {
-    test::parse(text, kSource);
-    FAIL() << "accepted";
-  } catch (const InputError& e) {
-    const TextPosition at = position_of(text, R"("fuzz": ^1)");
-    EXPECT_EQ(std::string(e.what()), kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) +
-                                         ": /materials/white/fuzz: unknown key 'fuzz'");
-  }
+  const std::string message = parse_error(text);
+  const TextPosition at = position_of(text, R"("fuzz": ^1)");
+  EXPECT_EQ(message, kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": /materials/white/fuzz: unknown key 'fuzz'");
 }
 
 // A scene cannot forge output lines or terminal escapes: control characters it puts into a message are escaped.
@@ -339,16 +328,11 @@ TEST(MessagesAreOneLine, ControlCharactersFromTheSceneAreEscaped) {
       {with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": "a\u009bb"})"), R"(unknown material 'a\u009bb')"},
   };
   for (const auto& [text, expected] : cases) {
-    try {
-      test::parse(text, kSource);
-      FAIL() << "accepted";
-    } catch (const InputError& e) {
-      const std::string message = e.what();
-      EXPECT_NE(message.find(expected), std::string::npos) << message;
-      EXPECT_TRUE(std::none_of(message.begin(), message.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
-          << message;
-      EXPECT_EQ(message.find("\xc2\x9b"), std::string::npos) << message;
-    }
+    const std::string message = parse_error(text);
+    EXPECT_NE(message.find(expected), std::string::npos) << message;
+    EXPECT_TRUE(std::none_of(message.begin(), message.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
+        << message;
+    EXPECT_EQ(message.find("\xc2\x9b"), std::string::npos) << message;
   }
 }
 

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <initializer_list>
 #include <thread>
 
 #include "film/checkpoint.hpp"
@@ -136,6 +137,19 @@ TEST(ResumedRender, TimeLimitThenResumeGivesTheSameImageFile) {
   EXPECT_FALSE(temporaries_left(dir.path()));
 }
 
+TEST(ResumedRender, FinishedRenderResumedToMoreSamplesGivesTheSameImageFile) {
+  test::TempDir dir;
+  const std::string scene = test::quoted(test::scene_path("book1-final.json")) + " --width 48 --height 27 --threads 2 ";
+  ASSERT_EQ(test::run_pathtracer("render " + scene + "--spp 12 -o " + test::quoted(dir / "whole.pfm"), dir).exit_code, 0);
+  ASSERT_EQ(test::run_pathtracer("render " + scene + "--spp 5 --checkpoint " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "five.pfm"), dir).exit_code, 0);
+  const test::CommandResult more =
+      test::run_pathtracer("render " + scene + "--spp 12 --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "more.pfm"), dir);
+  ASSERT_EQ(more.exit_code, 0) << more.err;
+  EXPECT_EQ(test::read_text_file(dir / "more.pfm"), test::read_text_file(dir / "whole.pfm"));
+  // Fewer samples than the film holds cannot be had from it.
+  EXPECT_EQ(test::run_pathtracer("render " + scene + "--spp 3 --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "x.pfm"), dir).exit_code, 1);
+}
+
 // Starts the program in the background on a render that would take hours; returns its process id.
 pid_t start_long_render(const test::TempDir& dir, const std::string& extra) {
   const std::string command = "exec '" + test::pathtracer_binary() + "' render " + test::quoted(test::scene_path("book1-final.json")) +
@@ -172,12 +186,17 @@ int exit_status_within(pid_t pid, double seconds) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// A long render started, its first passes waited for, then sent `signals` one after another: its exit status.
+int exit_status_after(const test::TempDir& dir, const std::string& extra, std::initializer_list<int> signals) {
+  const pid_t pid = start_long_render(dir, extra);
+  wait_for_start(dir, 60);
+  for (const int signal : signals) kill(pid, signal);
+  return exit_status_within(pid, 60);
+}
+
 TEST(Interrupt, SigintWritesThePartialImageAndItsFilmAndExits130) {
   test::TempDir dir;
-  const pid_t pid = start_long_render(dir, " --checkpoint " + test::quoted(dir / "film"));
-  wait_for_start(dir, 60);
-  kill(pid, SIGINT);
-  EXPECT_EQ(exit_status_within(pid, 60), 130);
+  EXPECT_EQ(exit_status_after(dir, " --checkpoint " + test::quoted(dir / "film"), {SIGINT}), 130);
   const std::string err = test::read_text_file(dir / "stderr.txt");
   EXPECT_NE(err.find("stopped by an interrupt (SIGINT) after"), std::string::npos) << err;
   const LinearImage image = test::read_pfm(dir / "image.pfm");
@@ -189,21 +208,14 @@ TEST(Interrupt, SigintWritesThePartialImageAndItsFilmAndExits130) {
 
 TEST(Interrupt, SigtermExits143) {
   test::TempDir dir;
-  const pid_t pid = start_long_render(dir, "");
-  wait_for_start(dir, 60);
-  kill(pid, SIGTERM);
-  EXPECT_EQ(exit_status_within(pid, 60), 143);
+  EXPECT_EQ(exit_status_after(dir, "", {SIGTERM}), 143);
   EXPECT_TRUE(std::filesystem::exists(dir / "image.pfm"));
   EXPECT_FALSE(temporaries_left(dir.path()));
 }
 
 TEST(Interrupt, SecondInterruptEndsAtOnceWithoutTemporaries) {
   test::TempDir dir;
-  const pid_t pid = start_long_render(dir, "");
-  wait_for_start(dir, 60);
-  kill(pid, SIGINT);
-  kill(pid, SIGINT);
-  EXPECT_EQ(exit_status_within(pid, 60), 130);
+  EXPECT_EQ(exit_status_after(dir, "", {SIGINT, SIGINT}), 130);
   EXPECT_FALSE(temporaries_left(dir.path()));
 }
 #endif

@@ -220,8 +220,6 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
     if (!options.quiet) fmt::print(stderr, "stopped before the first sample: nothing written\n");
     return caught ? 128 + caught : 0;
   }
-  // A render that ran to its end leaves its film too, so that it can be resumed to more samples.
-  if (!film.stopped_early && control.checkpoint) control.checkpoint(film.pixels(), film.samples_done);
   phases.add("upload", film.stats.upload_seconds);
   phases.add("render", film.stats.seconds);
   if (const std::optional<double> on_device = backend->device_seconds()) phases.add("  of which on the device", *on_device);

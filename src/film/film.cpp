@@ -100,7 +100,7 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     if (control.time_limit_seconds > 0 && per_sample > 0) wanted = std::min(wanted, (control.time_limit_seconds - elapsed) / per_sample);
     pass = static_cast<u32>(std::clamp(wanted, 1.0, std::max(1.0, 4.0 * pass)));
   }
-  if (stopped) save();
+  if (done > first) save();  // stopped or finished, either can be resumed (a finished render to more samples)
   const double render_seconds = seconds_since(start);
   RenderedFilm film;
   film.samples_done = done;

@@ -35,7 +35,7 @@ struct RenderControl {
   std::function<bool()> stop_requested;      // an interrupt: stop after the pass under way
   double time_limit_seconds = 0;             // > 0: stop once the passes have taken this long
   double checkpoint_interval_seconds = 0;    // > 0 (with `checkpoint`): save the film about this often
-  // Called with the film and its samples per pixel every interval and when the render stops early.
+  // Called with the film and its samples per pixel every interval and when the render ends, early or not.
   std::function<void(std::span<const FilmPixel>, u32 samples_done)> checkpoint;
   std::span<const FilmPixel> start_film;     // a resumed render: the film to go on from, holding
   u32 start_samples = 0;                     // this many samples per pixel

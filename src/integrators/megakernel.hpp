@@ -22,9 +22,10 @@ class MegakernelIntegrator {
     while (done < sample_count) {
       // On a GPU, batches of about a tenth of a second between synchronisations, of one sample per launch with a
       // kernel that has no loop over samples (MegakernelSample says what went wrong with one), so each launch
-      // starts its warps converged on a fresh sample and stays far below any display watchdog's limit. On the host a launch costs a fork and join of the threads, and a pixel's samples traced
-      // back to back share the caches (passes of a sample or two over the whole image were 4 % slower), so one
-      // launch takes every sample of the call, each pixel's in order: the same sums either way.
+      // starts its warps converged on a fresh sample and stays far below any display watchdog's limit. On the
+      // host a launch costs a fork and join of the threads, and a pixel's samples traced back to back share the
+      // caches (passes of a sample or two over the whole image were 4 % slower), so one launch takes every
+      // sample of the call, each pixel's in order: the same sums either way.
       const bool host = device_.host();
       const u32 count = host ? sample_count - done : std::min(samples_per_batch_, sample_count - done);
       const double before = seconds_;
