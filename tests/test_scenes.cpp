@@ -90,3 +90,96 @@ TEST(ShippedScenes, SeedDefaultSceneHasTheDocumentedObjectCount) {
 
 }  // namespace
 }  // namespace pt
+
+namespace pt {
+namespace {
+
+// Every number of a shape, in a fixed order, with the kind first and 0/1 for an absent/present optional part.
+std::vector<double> shape_numbers(const ObjectShape& shape) {
+  std::vector<double> out{static_cast<double>(shape.index())};
+  auto add = [&](const Vec3d& v) { out.insert(out.end(), {v.x, v.y, v.z}); };
+  struct Collect {
+    std::vector<double>& out;
+    decltype(add)& vec;
+    void operator()(const Sphere<double>& s) const { vec(s.center), out.push_back(s.radius); }
+    void operator()(const MovingSphereSettings& s) const { vec(s.center0), vec(s.center1), out.insert(out.end(), {s.radius, s.time0, s.time1}); }
+    void operator()(const TriangleSettings& t) const {
+      for (const Vec3d& v : t.vertices) vec(v);
+      out.push_back(t.normals.has_value());
+      if (t.normals)
+        for (const Vec3d& n : *t.normals) vec(n);
+      out.push_back(t.uvs.has_value());
+      if (t.uvs)
+        for (const auto& uv : *t.uvs) out.insert(out.end(), {uv[0], uv[1]});
+    }
+    void operator()(const QuadSettings& q) const { vec(q.corner), vec(q.u), vec(q.v); }
+    void operator()(const BoxSettings& b) const { vec(b.min), vec(b.max); }
+    void operator()(const MediumSettings& m) const {
+      out.push_back(static_cast<double>(m.boundary.index()));
+      std::visit(*this, m.boundary);
+      for (const auto& row : m.boundary_transform.rotation) out.insert(out.end(), {row[0], row[1], row[2]});
+      vec(m.boundary_transform.translation);
+      out.push_back(m.density);
+    }
+  };
+  std::visit(Collect{out, add}, shape);
+  return out;
+}
+
+bool same_transform(const RigidTransform& a, const RigidTransform& b) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a.rotation[i][j] != b.rotation[i][j]) return false;
+  return a.translation.x == b.translation.x && a.translation.y == b.translation.y && a.translation.z == b.translation.z;
+}
+
+}  // namespace
+
+TEST(ObjectList, ReturnsEveryObjectAsStoredInOrder) {
+  // The compact store splits objects by shape kind and keeps transforms apart: reading back must give each object's
+  // own shape, transform and material, in the order they were added, for every kind and with or without a transform.
+  std::vector<SceneObject> written;
+  const RigidTransform turned = RigidTransform::from_euler_degrees({10, 20, 30}, {1, 2, 3});
+  for (int k = 0; k < 3; ++k) {  // three of each kind, each different
+    const double d = k + 1;
+    TriangleSettings with_attributes{{Vec3d{d, 0, 0}, Vec3d{0, d, 0}, Vec3d{0, 0, d}}, {}, {}};
+    with_attributes.normals = std::array<Vec3d, 3>{Vec3d{1, 0, 0}, Vec3d{0, d, 0}, Vec3d{0, 0, 1}};
+    with_attributes.uvs = std::array<std::array<double, 2>, 3>{{{0, d}, {1, 0}, {0.5, 0.25}}};
+    const ObjectShape shapes[] = {
+        Sphere<double>{{d, 2 * d, 3 * d}, d},
+        MovingSphereSettings{{d, 0, 0}, {0, d, 0}, 0.5 * d, 0, d},
+        TriangleSettings{{Vec3d{d, 0, 0}, Vec3d{0, d, 0}, Vec3d{0, 0, d}}, {}, {}},
+        with_attributes,
+        QuadSettings{{d, d, d}, {d, 0, 0}, {0, 0, d}},
+        BoxSettings{{-d, -d, -d}, {d, 2 * d, 3 * d}},
+        MediumSettings{Sphere<double>{{0, d, 0}, d}, turned, 0.1 * d},
+        MediumSettings{BoxSettings{{0, 0, 0}, {d, d, d}}, RigidTransform{}, d},
+    };
+    for (const ObjectShape& shape : shapes) {
+      SceneObject o;
+      o.shape = shape;
+      o.material = static_cast<u32>(written.size());
+      written.push_back(o);
+      o.transform = turned;
+      o.material += 1000;
+      written.push_back(o);
+    }
+  }
+  ObjectList list;
+  for (const SceneObject& o : written) list.push_back(o);
+  ASSERT_EQ(list.size(), written.size());
+  std::size_t i = 0;
+  for (const SceneObject& o : list) {
+    EXPECT_EQ(shape_numbers(o.shape), shape_numbers(written[i].shape)) << i;
+    EXPECT_TRUE(same_transform(o.transform, written[i].transform)) << i;
+    EXPECT_EQ(o.material, written[i].material) << i;
+    ++i;
+  }
+  // set() replaces one object, whatever its kind was.
+  list.set(1, written[0]);
+  EXPECT_EQ(list[1].material, written[0].material);
+  EXPECT_TRUE(list[1].transform.is_identity());
+  EXPECT_EQ(list[2].material, written[2].material);
+}
+
+}  // namespace pt

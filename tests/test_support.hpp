@@ -353,7 +353,11 @@ inline SceneDescription translated(SceneDescription scene, const Vec3d& offset) 
   require_position_free_textures(scene, "translated()");
   RigidTransform move;
   move.translation = offset;
-  for (SceneObject& object : scene.objects) object.transform = object.transform.then(move);
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    SceneObject object = scene.objects[i];
+    object.transform = object.transform.then(move);
+    scene.objects.set(i, object);
+  }
   scene.camera.look_from = scene.camera.look_from + offset;
   scene.camera.look_at = scene.camera.look_at + offset;
   return scene;
@@ -384,9 +388,11 @@ inline SceneDescription scaled(SceneDescription scene, double factor) {
       x.density /= f;
     }
   };
-  for (SceneObject& object : scene.objects) {
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    SceneObject object = scene.objects[i];
     std::visit(Scale{factor}, object.shape);
     object.transform.translation = object.transform.translation * factor;
+    scene.objects.set(i, object);
   }
   scene.camera.look_from = scene.camera.look_from * factor;
   scene.camera.look_at = scene.camera.look_at * factor;

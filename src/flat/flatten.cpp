@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -184,29 +185,38 @@ Material<T> fit_material(const Fit<T>& fit, const Material<double>& material, co
   return visit(Convert{fit, at}, material);
 }
 
-// Where a primitive was written: the JSON path of its object, or of a medium's boundary.
+// Where a primitive was written: its object, or a medium's boundary. Kept small (a scene may have millions of
+// primitives); the JSON path and a box as written are looked up when the primitive is converted.
 struct PrimitiveOrigin {
-  std::string pointer;
-  bool moved = false;                 // a transform moved it: its positions are not the ones written
-  const BoxSettings* box = nullptr;  // for one of the six faces of a box: the box, as written
-};
+  u32 object = 0;
+  bool boundary = false;  // the boundary of the object's medium
+  bool moved = false;     // a transform moved it: its positions are not the ones written
+  bool box = false;       // one of the six faces of a box
 
-bool is_identity(const RigidTransform& xf) {
-  const RigidTransform identity;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (xf.rotation[i][j] != identity.rotation[i][j]) return false;
-  return xf.translation.x == 0 && xf.translation.y == 0 && xf.translation.z == 0;
-}
+  std::string pointer() const { return "/objects/" + std::to_string(object) + (boundary ? "/boundary" : ""); }
+  // The box as written, for a face of one.
+  std::optional<BoxSettings> written_box(const SceneDescription& scene) const {
+    if (!box) return std::nullopt;
+    const SceneObject o = scene.objects[object];
+    if (boundary) return std::get<BoxSettings>(std::get<MediumSettings>(o.shape).boundary);
+    return std::get<BoxSettings>(o.shape);
+  }
+};
 
 // The primitive in the kernels' type. Besides what is stored, the points and edges the kernels derive from it are
 // checked as lengths: a quad's edges u and v, a triangle's other vertices, a moving sphere's centre over the shutter
 // interval [open, close].
 template <class T>
-Primitive<T> fit_primitive(const Fit<T>& fit, const Primitive<double>& primitive, const PrimitiveOrigin& origin, double open, double close) {
+Primitive<T> fit_primitive(const Fit<T>& fit, const SceneDescription& scene, const Primitive<double>& primitive, const PrimitiveOrigin& written,
+                           double open, double close) {
+  struct Origin {
+    std::string pointer;
+    bool moved;
+    std::optional<BoxSettings> box;
+  };
   struct Convert {
     const Fit<T>& fit;
-    const PrimitiveOrigin& origin;
+    const Origin& origin;
     double open, close;
 
     std::string key(const char* name) const { return origin.pointer + name; }
@@ -262,6 +272,7 @@ Primitive<T> fit_primitive(const Fit<T>& fit, const Primitive<double>& primitive
       return ConstantMedium<T>{m.first_boundary, m.boundary_count, static_cast<T>(m.neg_inv_density)};
     }
   };
+  const Origin origin{written.pointer(), written.moved, written.written_box(scene)};
   return Primitive<T>{visit(Convert{fit, origin, open, close}, primitive.shape), primitive.material};
 }
 
@@ -565,7 +576,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   std::vector<PrimitiveOrigin> origins, boundary_origins;
   std::vector<std::string> attribute_objects;
   for (std::size_t index = 0; index < scene.objects.size(); ++index) {
-    const SceneObject& object = scene.objects[index];
+    const SceneObject object = scene.objects[index];
     const RigidTransform& xf = object.transform;
     const std::string pointer = "/objects/" + std::to_string(index);
     if (const auto* s = std::get_if<Sphere<double>>(&object.shape)) {
@@ -606,10 +617,10 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       else
         for (const Quad<double>& face : box_faces(std::get<BoxSettings>(m->boundary), boundary_xf)) boundaries.push_back({face, object.material});
       primitives.push_back({ConstantMedium<double>{first, static_cast<u32>(boundaries.size()) - first, -1.0 / m->density}, object.material});
-      const BoxSettings* box = std::get_if<BoxSettings>(&m->boundary);
-      boundary_origins.resize(boundaries.size(), PrimitiveOrigin{pointer + "/boundary", !is_identity(boundary_xf), box});
+      const bool box = std::holds_alternative<BoxSettings>(m->boundary);
+      boundary_origins.resize(boundaries.size(), PrimitiveOrigin{static_cast<u32>(index), true, !boundary_xf.is_identity(), box});
     }
-    origins.resize(primitives.size(), PrimitiveOrigin{pointer, !is_identity(xf), std::get_if<BoxSettings>(&object.shape)});
+    origins.resize(primitives.size(), PrimitiveOrigin{static_cast<u32>(index), false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)});
   }
   // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
   if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
@@ -665,8 +676,8 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   for (u32 i = 0; i < scene.materials.size(); ++i) flat.materials.push_back(fit_material(fit, scene.materials[i], fit.material(i)));
   std::vector<Primitive<T>> converted;
   converted.reserve(primitives.size());
-  for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, primitives[i], origins[i], open, close));
-  for (std::size_t i = 0; i < boundaries.size(); ++i) flat.boundaries.push_back(fit_primitive(fit, boundaries[i], boundary_origins[i], open, close));
+  for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, scene, primitives[i], origins[i], open, close));
+  for (std::size_t i = 0; i < boundaries.size(); ++i) flat.boundaries.push_back(fit_primitive(fit, scene, boundaries[i], boundary_origins[i], open, close));
   for (std::size_t k = 0; k < attributes.size(); ++k) {
     const TriangleAttributes<double>& a = attributes[k];
     TriangleAttributes<T> out{};

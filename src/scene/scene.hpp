@@ -2,10 +2,15 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
+#include <deque>
+#include <iterator>
 #include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -38,6 +43,7 @@ struct RigidTransform {
   Vec3d apply_vector(const Vec3d& v) const;
   Vec3d apply_point(const Vec3d& p) const { return apply_vector(p) + translation; }
   RigidTransform then(const RigidTransform& outer) const;  // this first, then outer
+  bool is_identity() const;
 };
 
 struct MovingSphereSettings {
@@ -74,6 +80,94 @@ struct SceneObject {
   u32 material = 0;
 };
 
+// A scene's objects, stored compactly: a SceneObject is as large as its largest shape plus a transform (320 bytes),
+// while a scene of millions of objects is mostly spheres or triangles without a transform. Each shape kind has its
+// own store, each transform other than the identity is stored once, and an object is a 16-byte record pointing into
+// them: a sphere costs 48 bytes. Blocks of a std::deque grow without copying, so loading never holds a list twice.
+// Objects are read by value (operator[], iteration) and changed with set().
+class ObjectList {
+ public:
+  std::size_t size() const { return records_.size(); }
+  bool empty() const { return records_.empty(); }
+  void reserve(std::size_t count) { records_.reserve(count); }
+
+  void push_back(const SceneObject& object) { records_.push_back(store(object)); }
+  void set(std::size_t i, const SceneObject& object) { records_[i] = store(object); }  // the old shape's slot is left unused
+
+  SceneObject operator[](std::size_t i) const {
+    const Record& r = records_[i];
+    SceneObject object;
+    object.shape = load(r.shape, r.slot, std::make_index_sequence<std::variant_size_v<ObjectShape>>{});
+    if (r.transform != kIdentity) object.transform = transforms_[r.transform];
+    object.material = r.material;
+    return object;
+  }
+
+  class Iterator {
+   public:
+    using iterator_category = std::input_iterator_tag;
+    using value_type = SceneObject;
+    using difference_type = std::ptrdiff_t;
+    using pointer = void;
+    using reference = SceneObject;
+    Iterator(const ObjectList* list, std::size_t i) : list_(list), i_(i) {}
+    SceneObject operator*() const { return (*list_)[i_]; }
+    Iterator& operator++() {
+      ++i_;
+      return *this;
+    }
+    bool operator==(const Iterator& other) const { return i_ == other.i_; }
+    bool operator!=(const Iterator& other) const { return i_ != other.i_; }
+
+   private:
+    const ObjectList* list_;
+    std::size_t i_;
+  };
+  Iterator begin() const { return {this, 0}; }
+  Iterator end() const { return {this, records_.size()}; }
+
+ private:
+  static constexpr u32 kIdentity = ~0u;
+  struct Record {
+    u32 slot;       // index in the store of its shape kind
+    u32 transform;  // index in transforms_, or kIdentity
+    u32 material;
+    u8 shape;       // the ObjectShape alternative
+  };
+  template <class Variant> struct StoresOf;
+  template <class... Shapes> struct StoresOf<std::variant<Shapes...>> { using type = std::tuple<std::deque<Shapes>...>; };
+
+  Record store(const SceneObject& object) {
+    Record r{};
+    r.shape = static_cast<u8>(object.shape.index());
+    std::visit(
+        [&](const auto& shape) {
+          auto& shapes = std::get<std::deque<std::decay_t<decltype(shape)>>>(stores_);
+          r.slot = static_cast<u32>(shapes.size());
+          shapes.push_back(shape);
+        },
+        object.shape);
+    r.transform = kIdentity;
+    if (!object.transform.is_identity()) {
+      r.transform = static_cast<u32>(transforms_.size());
+      transforms_.push_back(object.transform);
+    }
+    r.material = object.material;
+    return r;
+  }
+
+  template <std::size_t... I>
+  ObjectShape load(u8 shape, u32 slot, std::index_sequence<I...>) const {
+    ObjectShape out;
+    ((shape == I ? (out.template emplace<I>(std::get<I>(stores_)[slot]), true) : false) || ...);
+    return out;
+  }
+
+  std::vector<Record> records_;
+  typename StoresOf<ObjectShape>::type stores_;
+  std::deque<RigidTransform> transforms_;
+};
+
 // Where the parts of a parsed scene were written, so that checks made after parsing (flatten_scene) can name a value
 // as the parser does, FILE:LINE:COLUMN: /json/path (source_position in scene/scene_loader.hpp). Object i is
 // always "/objects/i" and the camera "/camera"; textures and materials, written inline or under a name, are
@@ -94,7 +188,7 @@ struct SceneDescription {
   std::vector<Texture<double>> textures;
   std::vector<u8> texels;  // every image texture's sRGB-encoded RGB texels (TextureImage), one after another
   std::vector<Material<double>> materials;
-  std::vector<SceneObject> objects;
+  ObjectList objects;
 };
 
 }  // namespace pt

@@ -39,4 +39,12 @@ RigidTransform RigidTransform::then(const RigidTransform& outer) const {
   return result;
 }
 
+bool RigidTransform::is_identity() const {
+  const RigidTransform identity;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (rotation[i][j] != identity.rotation[i][j]) return false;
+  return translation.x == 0 && translation.y == 0 && translation.z == 0;
+}
+
 }  // namespace pt
