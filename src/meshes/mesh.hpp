@@ -1,0 +1,89 @@
+// Triangle meshes as read from model files (Wavefront OBJ, PLY, glTF 2.0): indexed vertex arrays, materials and
+// textures in double precision on the host, before a scene places them and flattening turns them into the kernels'
+// arrays.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "image/image_io.hpp"
+#include "scene/scene.hpp"
+
+namespace pt {
+
+// What a model file says about a surface, in the terms every format shares (glTF's metallic-roughness model; OBJ's
+// Kd/Ke/map_Kd map onto it). Colours are linear RGB; a factor multiplies its texture where there is one.
+struct MeshMaterial {
+  std::string name;
+  Vec3d base_color{0.8, 0.8, 0.8};
+  i32 base_color_texture = -1;  // index into MeshFile::textures, or -1
+  Vec3d emission{0, 0, 0};      // emitted radiance
+  i32 emission_texture = -1;
+  double metallic = 0, roughness = 1;
+};
+
+// One indexed triangle mesh. A vertex is one index into every per-vertex array (formats that index positions,
+// normals and uvs separately, like OBJ, are unified by the reader).
+struct TriangleMesh {
+  std::string name;                            // for messages: the file's name for it, or "mesh N"
+  std::vector<Vec3d> positions;
+  std::vector<Vec3d> normals;                  // empty, or one per position (unit length)
+  std::vector<std::array<double, 2>> uvs;      // empty, or one per position (v up, as OBJ and PLY write it)
+  std::vector<std::array<u32, 3>> triangles;   // counter-clockwise seen from the front, indices into the vertex arrays
+  std::vector<u32> materials;                  // empty (every triangle uses material 0), or one per triangle:
+                                               // an index into MeshFile::materials
+};
+
+// A general affine map x -> linear x + translation: model files scale and shear as well as rotate.
+struct AffineTransform {
+  double linear[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  Vec3d translation{};
+
+  static AffineTransform from_rigid(const RigidTransform& rigid);
+  static AffineTransform scaling(const Vec3d& factors);
+  // From a column-major 4x4 matrix whose last row is 0 0 0 1 (glTF's `matrix`).
+  static AffineTransform from_column_major(const double m[16]);
+  Vec3d apply_point(const Vec3d& p) const { return apply_vector(p) + translation; }
+  Vec3d apply_vector(const Vec3d& v) const;
+  Vec3d apply_normal(const Vec3d& n) const;  // by the inverse transpose, not normalised
+  AffineTransform then(const AffineTransform& outer) const;  // this first, then outer
+  AffineTransform inverse() const;  // of an invertible map (determinant != 0)
+  double determinant() const;
+  bool is_identity() const;
+};
+
+// A mesh of the file placed in the file's space: glTF nodes place meshes (a mesh may be placed several times);
+// OBJ and PLY place their meshes once each, unmoved.
+struct MeshPlacement {
+  u32 mesh;
+  AffineTransform transform;
+};
+
+// Everything read from one model file.
+struct MeshFile {
+  std::filesystem::path path;
+  std::vector<TriangleMesh> meshes;
+  std::vector<MeshMaterial> materials;     // at least one: readers add a default (MeshMaterial{}) where the file has none
+  std::vector<TextureImage> textures;      // decoded 8-bit sRGB images (read_texture_image's limits apply)
+  std::vector<MeshPlacement> placements;
+  std::optional<CameraSettings> camera;    // glTF: the first camera of the scene, placed by its node
+  std::vector<std::string> warnings;       // each feature of the file that is not rendered, named once
+};
+
+// Limits on one model file, beyond those of textures: larger counts are refused as absurd rather than attempted.
+inline constexpr u64 kMaxMeshTriangles = u64{1} << 28;   // all meshes of a file together
+inline constexpr u64 kMaxMeshVertices = u64{1} << 28;
+
+// Reads a model file by its extension (.obj, .ply, .gltf, .glb). Throws InputError naming the file and, where
+// the format has them, the line or the JSON path of the problem: missing or unreadable files and buffers, indices
+// out of range, non-finite positions, unsupported primitive modes, recursive node hierarchies, and so on.
+MeshFile read_mesh_file(const std::filesystem::path& path);
+
+MeshFile read_obj_file(const std::filesystem::path& path);   // with its MTL material libraries
+MeshFile read_ply_file(const std::filesystem::path& path);   // ASCII and binary (either byte order)
+MeshFile read_gltf_file(const std::filesystem::path& path);  // .gltf (external or embedded buffers) and .glb
+
+}  // namespace pt

@@ -1,0 +1,13 @@
+// OBJ model files -> MeshFile (being written).
+#include <fmt/format.h>
+
+#include "base/errors.hpp"
+#include "meshes/mesh.hpp"
+
+namespace pt {
+
+MeshFile read_obj_file(const std::filesystem::path& path) {
+  throw InputError(fmt::format("{}: OBJ files are not read yet", path.string()));
+}
+
+}  // namespace pt
