@@ -8,6 +8,8 @@
 
 #include "flat/bvh_builder.hpp"
 #include "kernel/fixed_point.hpp"
+#include "meshes/mesh.hpp"
+#include "scene/scene_loader.hpp"
 #include "test_support.hpp"
 
 namespace pt {
@@ -80,6 +82,41 @@ SceneDescription random_scene(u64 seed) {
   scene.objects.push_back(object(
       MediumSettings{BoxSettings{{-3, -3, -3}, {3, 2, 1}}, RigidTransform::from_euler_degrees({10, 25, -5}, {0, 0, 0}), 0.2}, 1,
       RigidTransform::from_euler_degrees({0, 0, 0}, {-4, 3, 4})));
+  // Meshes: one file placed three times (instances sharing one mesh, scaled, rotated, one mirrored), one placed once
+  // (stored in world space).
+  auto soup = [&](int triangles) {
+    auto file = std::make_shared<MeshFile>();
+    file->path = "generated.ply";
+    TriangleMesh mesh;
+    mesh.name = "soup";
+    for (int i = 0; i < triangles; ++i) {
+      const Vec3d p = rng.vec3(-2, 2);
+      const double s = size();
+      for (const Vec3d& v : {p, p + s * rng.unit_vector(), p + s * rng.unit_vector()}) {
+        mesh.positions.push_back(v);
+        mesh.normals.push_back(rng.unit_vector());
+        mesh.uvs.push_back({rng.uniform(), rng.uniform()});
+      }
+      const u32 first = static_cast<u32>(3 * i);
+      mesh.triangles.push_back({first, first + 1, first + 2});
+    }
+    file->meshes.push_back(mesh);
+    file->materials.push_back(MeshMaterial{});
+    file->placements.push_back(MeshPlacement{0, AffineTransform{}});
+    return file;
+  };
+  const u32 shared = add_mesh_file(scene, soup(400), "/objects");
+  const u32 single = add_mesh_file(scene, soup(300), "/objects");
+  auto place = [&](u32 file, const Vec3d& scale, const Vec3d& degrees, const Vec3d& at) {
+    SceneObject o;
+    o.shape = MeshSettings{file, AffineTransform::scaling(scale).then(AffineTransform::from_rigid(RigidTransform::from_euler_degrees(degrees, at)))};
+    o.material = kMeshMaterials;
+    scene.objects.push_back(o);
+  };
+  place(shared, {1, 1, 1}, {0, 0, 0}, {5, 5, 5});
+  place(shared, {2, 0.5, 1.5}, {30, -20, 75}, {-6, 2, -4});
+  place(shared, {-1.5, 1.5, 1.5}, {0, 90, 10}, {4, -6, 1});
+  place(single, {1.2, 0.8, 1}, {-40, 15, 5}, {-3, -5, 6});
   return scene;
 }
 
@@ -122,6 +159,7 @@ template <class T>
 struct Comparison {
   int rays = 0, hits = 0, mismatches = 0;
   std::vector<int> hits_by_shape = std::vector<int>(std::variant_size_v<Shape<T>>, 0);
+  int world_space_mesh_hits = 0, instanced_mesh_hits = 0;  // meshes placed once, and more often (with a transform)
   std::string first_mismatch;
 };
 
@@ -141,7 +179,7 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
       Hit<T> bvh_hit{};
       const bool bvh_found = wide ? closest_hit_wide(view, rays[i], context, bvh_hit) : closest_hit_binary(view, rays[i], context, bvh_hit);
       if (bvh_found == brute_found && (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t &&
-                                                      bvh_hit.b1 == brute_hit.b1 && bvh_hit.b2 == brute_hit.b2)))
+                                                      bvh_hit.b1 == brute_hit.b1 && bvh_hit.b2 == brute_hit.b2 && bvh_hit.triangle == brute_hit.triangle)))
         continue;
       same = false;
       if (result.mismatches++ == 0)
@@ -154,6 +192,8 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
     if (brute_found) {
       ++result.hits;
       ++result.hits_by_shape[flat.primitives[brute_hit.primitive].shape.index()];
+      if (const auto* instance = std::get_if<MeshInstance<T>>(&flat.primitives[brute_hit.primitive].shape))
+        ++(instance->transform == kNoTransform ? result.world_space_mesh_hits : result.instanced_mesh_hits);
     }
   }
   return result;
@@ -180,6 +220,10 @@ TYPED_TEST(BvhMatchesBruteForce, RandomSpheresTrianglesQuadsMovingSpheresAndMedi
   // The comparison means something only if rays hit every kind of primitive.
   EXPECT_GT(result.hits, result.rays / 4);
   for (std::size_t kind = 0; kind < result.hits_by_shape.size(); ++kind) EXPECT_GT(result.hits_by_shape[kind], 20) << "shape kind " << kind;
+  EXPECT_GT(result.world_space_mesh_hits, 20);
+  EXPECT_GT(result.instanced_mesh_hits, 20);
+  EXPECT_EQ(flat.instance_transforms.size(), 3u);
+  EXPECT_EQ(flat.meshes.size(), 2u);
 }
 
 TYPED_TEST(BvhMatchesBruteForce, RaysStartingOnSurfaces) {

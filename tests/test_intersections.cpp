@@ -43,7 +43,7 @@ template <class T>
 bool hit_shape(const Shape<T>& shape, const Ray<T>& ray, double t_min, double t_max, Hit<T>& hit, SurfacePoint<T>& at,
                const TriangleAttributes<T>* attributes = nullptr) {
   if (!intersect_geometry(shape, ray, static_cast<T>(t_min), static_cast<T>(t_max), hit)) return false;
-  at = describe_hit(Primitive<T>{shape, 7}, attributes, ray, hit);
+  at = describe_hit(Primitive<T>{shape, 7}, attributes, MeshData<T>{}, ray, hit);
   return true;
 }
 
@@ -506,7 +506,7 @@ TYPED_TEST(MediumIntersection, OriginInsideScattersJustAheadOfTheOrigin) {
   ASSERT_TRUE(hit_medium(f, 3, make_ray<T>({0, 0.2, -5}, {0, 0, -1}), 0.001, 1e30, hit));
   EXPECT_GE(hit.t, T(0.001));
   EXPECT_LT(hit.t, T(0.0011));
-  const SurfacePoint<T> at = describe_hit(f.medium, static_cast<const TriangleAttributes<T>*>(nullptr), make_ray<T>({0, 0.2, -5}, {0, 0, -1}), hit);
+  const SurfacePoint<T> at = describe_hit(f.medium, static_cast<const TriangleAttributes<T>*>(nullptr), MeshData<T>{}, make_ray<T>({0, 0.2, -5}, {0, 0, -1}), hit);
   EXPECT_TRUE(at.front_face);
   EXPECT_NEAR(length(at.normal), 1.0, tolerance<T>());
   expect_vec_near(at.p, {0, 0.2, -5 - static_cast<double>(hit.t)}, tolerance<T>());

@@ -138,7 +138,7 @@ void expect_no_self_intersection(bool narrow) {
         const Ray<T> ray{test::to<T>(point - back * incoming), test::to<T>(incoming), static_cast<T>(time)};
         Hit<T> hit{};
         if (!intersect_geometry(shape, ray, T(0), largest<T>(), hit)) continue;
-        const SurfacePoint<T> at = describe_hit(Primitive<T>{shape, 0}, static_cast<const TriangleAttributes<T>*>(nullptr), ray, hit);
+        const SurfacePoint<T> at = describe_hit(Primitive<T>{shape, 0}, static_cast<const TriangleAttributes<T>*>(nullptr), MeshData<T>{}, ray, hit);
         // Directions are drawn about the normal the kernel computed, as a material draws them: which side a ray
         // within the normal's own rounding of the tangent plane goes to is the kernel's call, not the test's.
         normal = normalize(as_double(at.geometric_normal));
@@ -187,7 +187,7 @@ TEST(RaySpawning, OffsetIsRelativeToTheSceneSize) {
     const Ray<float> ray{test::to<float>(Vec3d{0.2, 0.1, 5} * scale), test::to<float>(normalize(Vec3d{-0.04, -0.02, -1})), 0};
     Hit<float> hit{};
     ASSERT_TRUE(intersect_geometry(sphere, ray, 0.0f, largest<float>(), hit));
-    const SurfacePoint<float> at = describe_hit(Primitive<float>{sphere, 0}, static_cast<const TriangleAttributes<float>*>(nullptr), ray, hit);
+    const SurfacePoint<float> at = describe_hit(Primitive<float>{sphere, 0}, static_cast<const TriangleAttributes<float>*>(nullptr), MeshData<float>{}, ray, hit);
     const double offset = at.offset;
     EXPECT_GT(offset, 1e-7 * scale);
     EXPECT_LT(offset, 1e-5 * scale);

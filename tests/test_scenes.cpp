@@ -121,6 +121,11 @@ std::vector<double> shape_numbers(const ObjectShape& shape) {
       vec(m.boundary_transform.translation);
       out.push_back(m.density);
     }
+    void operator()(const MeshSettings& m) const {
+      out.push_back(m.file);
+      for (const auto& row : m.transform.linear) out.insert(out.end(), {row[0], row[1], row[2]});
+      vec(m.transform.translation);
+    }
   };
   std::visit(Collect{out, add}, shape);
   return out;
@@ -154,6 +159,7 @@ TEST(ObjectList, ReturnsEveryObjectAsStoredInOrder) {
         BoxSettings{{-d, -d, -d}, {d, 2 * d, 3 * d}},
         MediumSettings{Sphere<double>{{0, d, 0}, d}, turned, 0.1 * d},
         MediumSettings{BoxSettings{{0, 0, 0}, {d, d, d}}, RigidTransform{}, d},
+        MeshSettings{static_cast<u32>(k), AffineTransform::scaling({d, 2 * d, 3 * d})},
     };
     for (const ObjectShape& shape : shapes) {
       SceneObject o;

@@ -387,6 +387,7 @@ inline SceneDescription scaled(SceneDescription scene, double factor) {
       x.boundary_transform.translation = x.boundary_transform.translation * f;
       x.density /= f;
     }
+    void operator()(MeshSettings& x) const { x.transform = x.transform.then(AffineTransform::scaling({f, f, f})); }
   };
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     SceneObject object = scene.objects[i];

@@ -17,6 +17,15 @@ struct FlatScene {
   std::vector<Primitive<T>> primitives;
   std::vector<Primitive<T>> boundaries;
   std::vector<TriangleAttributes<T>> triangle_attributes;
+  // Meshes (kernel/shapes.hpp, MeshData): vertex arrays, triangles in BVH order, one record and one BVH per mesh
+  // (binary and wide, node indices global), and the transforms of instances.
+  std::vector<Vec3<T>> mesh_positions, mesh_normals;
+  std::vector<MeshUv<T>> mesh_uvs;
+  std::vector<MeshTriangle> mesh_triangles;
+  std::vector<MeshRecord> meshes;
+  std::vector<InstanceTransform<T>> instance_transforms;
+  std::vector<BvhNode<T>> mesh_nodes;
+  std::vector<WideBvhNode<T>> mesh_wide_nodes;
   std::vector<Material<T>> materials;
   std::vector<Texture<T>> textures;
   std::vector<u8> texels;         // sRGB bytes, three a texel
@@ -47,6 +56,10 @@ SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
                       place(scene.primitives, "copying the primitives"),
                       place(scene.boundaries, "copying the medium boundaries"),
                       place(scene.triangle_attributes, "copying the triangle attributes"),
+                      MeshData<T>{place(scene.mesh_positions, "copying the mesh vertices"), place(scene.mesh_normals, "copying the mesh normals"),
+                                  place(scene.mesh_uvs, "copying the mesh texture coordinates"), place(scene.mesh_triangles, "copying the mesh triangles"),
+                                  place(scene.meshes, "copying the meshes"), place(scene.instance_transforms, "copying the instance transforms"),
+                                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs")},
                       place(scene.materials, "copying the materials"),
                       place(scene.textures, "copying the textures"),
                       // Every image texture's texels in one array; ImageTexture::offset says where each starts.
@@ -65,6 +78,8 @@ static_assert(std::is_trivially_copyable_v<Texture<float>>);
 static_assert(std::is_trivially_copyable_v<BvhNode<float>>);
 static_assert(std::is_trivially_copyable_v<WideBvhNode<float>>);
 static_assert(std::is_trivially_copyable_v<SceneView<float>>);
+static_assert(std::is_trivially_copyable_v<InstanceTransform<float>>);
+static_assert(sizeof(MeshTriangle) == 16);
 static_assert(sizeof(BvhNode<float>) == 32, "a BVH node fills one 32-byte sector");
 
 // Flattens the scene with the effective render settings (the file's, after command-line overrides), with every

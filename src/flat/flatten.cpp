@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <optional>
 
 #include <fmt/format.h>
@@ -14,6 +15,7 @@
 #include "flat/bvh_builder.hpp"
 #include "base/number_formats.hpp"
 #include "image/image_io.hpp"
+#include "meshes/mesh.hpp"
 #include "scene/scene_loader.hpp"
 
 namespace pt {
@@ -158,7 +160,7 @@ Texture<T> fit_texture(const Fit<T>& fit, const Texture<double>& texture, const 
                                  fit(t.columns, Quantity::kPlain, at + "/columns"), fit(t.rows, Quantity::kPlain, at + "/rows")};
     }
     Texture<T> operator()(const ImageTexture<double>& t) const {
-      return ImageTexture<T>{t.width, t.height, t.offset, fit(t.repeat, Quantity::kPlain, at + "/repeat")};
+      return ImageTexture<T>{t.width, t.height, t.offset, fit(t.repeat, Quantity::kPlain, at + "/repeat"), fit(t.factor, Quantity::kColour, at, "the colour factor")};
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
       return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth};
@@ -271,6 +273,7 @@ Primitive<T> fit_primitive(const Fit<T>& fit, const SceneDescription& scene, con
       fit(-m.neg_inv_density, Quantity::kLength, key("/density"), "1 / density, the mean free path");
       return ConstantMedium<T>{m.first_boundary, m.boundary_count, static_cast<T>(m.neg_inv_density)};
     }
+    Shape<T> operator()(const MeshInstance<double>& m) const { return MeshInstance<T>{m.mesh, m.transform}; }  // checked with the meshes
   };
   const Origin origin{written.pointer(), written.moved, written.written_box(scene)};
   return Primitive<T>{visit(Convert{fit, origin, open, close}, primitive.shape), primitive.material};
@@ -289,6 +292,7 @@ Primitive<double> scaled(const Primitive<double>& primitive, double s) {
     Shape<double> operator()(const ConstantMedium<double>& x) const {
       return ConstantMedium<double>{x.first_boundary, x.boundary_count, x.neg_inv_density * s};
     }
+    Shape<double> operator()(const MeshInstance<double>& x) const { return x; }  // its mesh and transform are scaled apart
   };
   return Primitive<double>{visit(Scale{s}, primitive.shape), primitive.material};
 }
@@ -568,6 +572,149 @@ void make_perlin_tables(FlatScene<T>& flat) {
 
 }  // namespace
 
+// ---- Meshes ----
+//
+// Each placement of a model file's mesh becomes an instance primitive. A mesh placed once is stored in world space
+// (its instance has no transform, so rays are not transformed for it); a mesh placed more often is stored once in its
+// own space with one BVH, and each instance carries the affine map into and out of that space.
+
+// A placement met while reading the objects; `primitive` is its instance's index in the primitive list.
+struct MeshPlacementUse {
+  u32 file, mesh;
+  AffineTransform transform;  // mesh space to world
+  u32 object;
+};
+
+// A mesh as the kernels will store it, still in double: vertices, triangles (local vertex indices, scene materials)
+// in BVH order, and its BVH over them.
+struct MeshBuild {
+  u32 object;        // the first object placing it, for messages
+  std::string name;  // the file's name for it
+  std::vector<Vec3d> positions, normals;
+  std::vector<std::array<double, 2>> uvs;
+  std::vector<MeshTriangle> triangles;
+  BuiltBvh bvh;
+};
+
+// The mesh with its vertices mapped by `placed` (the identity for a shared mesh, kept in its own space), triangles
+// with zero area dropped (they can never be hit), and its BVH built.
+MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use, const AffineTransform& placed) {
+  const SceneMeshFile& entry = scene.mesh_files[use.file];
+  const TriangleMesh& mesh = entry.file->meshes[use.mesh];
+  MeshBuild out;
+  out.object = use.object;
+  out.name = mesh.name;
+  const bool identity = placed.is_identity();
+  out.positions.reserve(mesh.positions.size());
+  for (const Vec3d& p : mesh.positions) out.positions.push_back(identity ? p : placed.apply_point(p));
+  if (mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty()) {
+    out.normals.reserve(mesh.normals.size());
+    for (const Vec3d& n : mesh.normals) {
+      const Vec3d turned = identity ? n : placed.apply_normal(n);
+      const double length_squared_n = length_squared(turned);
+      out.normals.push_back(length_squared_n > 0 ? turned / std::sqrt(length_squared_n) : Vec3d{0, 0, 0});
+    }
+  }
+  if (mesh.uvs.size() == mesh.positions.size()) out.uvs = mesh.uvs;
+  // A mirroring map turns the winding around: swap two vertices so that the front stays the front.
+  const bool mirrored = placed.determinant() < 0;
+  std::vector<Aabb> bounds;
+  out.triangles.reserve(mesh.triangles.size());
+  bounds.reserve(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const std::array<u32, 3>& v = mesh.triangles[t];
+    const Vec3d& a = out.positions[v[0]];
+    const Vec3d& b = out.positions[v[1]];
+    const Vec3d& c = out.positions[v[2]];
+    if (length_squared(cross(b - a, c - a)) == 0) continue;
+    const u32 file_material = mesh.materials.empty() ? 0 : mesh.materials[t];
+    const u32 material = file_material < entry.materials.size() ? entry.materials[file_material] : entry.materials.at(0);
+    out.triangles.push_back(mirrored ? MeshTriangle{{v[0], v[2], v[1]}, material} : MeshTriangle{{v[0], v[1], v[2]}, material});
+    Aabb box;
+    box.grow(a);
+    box.grow(b);
+    box.grow(c);
+    bounds.push_back(box);
+  }
+  out.bvh = build_bvh(bounds);
+  std::vector<MeshTriangle> ordered;
+  ordered.reserve(out.triangles.size());
+  for (u32 i : out.bvh.order) ordered.push_back(out.triangles[i]);
+  out.triangles = std::move(ordered);
+  return out;
+}
+
+// The box of a mesh's BVH root mapped by an affine map: the box of its eight mapped corners.
+Aabb mapped_box(const BvhNode<double>& root, const AffineTransform& map) {
+  Aabb box;
+  for (int corner = 0; corner < 8; ++corner)
+    box.grow(map.apply_point(Vec3d{corner & 1 ? root.hi.x : root.lo.x, corner & 2 ? root.hi.y : root.lo.y, corner & 4 ? root.hi.z : root.lo.z}));
+  return box;
+}
+
+// The meshes' arrays in the kernels' type: vertices checked as lengths (a mesh's extent stands for its triangles'
+// edges), normals and texture coordinates as plain values, the BVHs padded and their indices made global, and the
+// instances' maps with their inverses and the normals' inverse transpose.
+template <class T>
+void flatten_meshes(const Fit<T>& fit, const std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
+                    FlatScene<T>& flat) {
+  for (const MeshBuild& m : meshes) {
+    const std::string where = "/objects/" + std::to_string(m.object) + "/file";
+    const std::string vertex = fmt::format("a vertex of mesh '{}'", m.name);
+    MeshRecord record{};
+    record.first_vertex = static_cast<u32>(flat.mesh_positions.size());
+    for (const Vec3d& p : m.positions) flat.mesh_positions.push_back(fit(p, Quantity::kLength, where, vertex));
+    fit(m.bvh.nodes[0].hi - m.bvh.nodes[0].lo, Quantity::kTriangleEdge, where, fmt::format("the extent of mesh '{}', which bounds its edges", m.name));
+    record.first_normal = kNoAttributes;
+    if (!m.normals.empty()) {
+      record.first_normal = static_cast<u32>(flat.mesh_normals.size());
+      for (const Vec3d& n : m.normals) flat.mesh_normals.push_back(fit(n, Quantity::kPlain, where, "a vertex normal"));
+    }
+    record.first_uv = kNoAttributes;
+    if (!m.uvs.empty()) {
+      record.first_uv = static_cast<u32>(flat.mesh_uvs.size());
+      for (const auto& uv : m.uvs)
+        flat.mesh_uvs.push_back(MeshUv<T>{fit(uv[0], Quantity::kPlain, where, "a texture coordinate"), fit(uv[1], Quantity::kPlain, where, "a texture coordinate")});
+    }
+    record.first_triangle = static_cast<u32>(flat.mesh_triangles.size());
+    record.triangle_count = static_cast<u32>(m.triangles.size());
+    flat.mesh_triangles.insert(flat.mesh_triangles.end(), m.triangles.begin(), m.triangles.end());
+    record.root = static_cast<u32>(flat.mesh_nodes.size());
+    for (const BvhNode<double>& n : m.bvh.nodes) {
+      BvhNode<T> out = padded_node<T>(n);
+      out.left_first += n.count > 0 ? record.first_triangle : record.root;
+      flat.mesh_nodes.push_back(out);
+    }
+    record.wide_root = static_cast<u32>(flat.mesh_wide_nodes.size());
+    for (WideBvhNode<T> w : WideBvhBuilder<T>(m.bvh.nodes).build()) {
+      for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
+        if (w.leaf_mask & (1u << lane)) w.child[lane] += record.first_triangle;
+        if (w.inner_mask & (1u << lane)) w.child[lane] += record.wide_root;
+      }
+      flat.mesh_wide_nodes.push_back(w);
+    }
+    flat.meshes.push_back(record);
+  }
+  for (std::size_t i = 0; i < maps.size(); ++i) {
+    const std::string where = "/objects/" + std::to_string(map_objects[i]) + "/transform";
+    const AffineTransform& to_world = maps[i];
+    const AffineTransform to_mesh = to_world.inverse();
+    auto rows = [&](const AffineTransform& a) {
+      AffineRows<T> out;
+      for (int r = 0; r < 3; ++r) out.row[r] = fit(Vec3d{a.linear[r][0], a.linear[r][1], a.linear[r][2]}, Quantity::kPlain, where, "the map placing a mesh");
+      out.translation = fit(a.translation, Quantity::kLength, where, "the map placing a mesh");
+      return out;
+    };
+    InstanceTransform<T> out;
+    out.to_world = rows(to_world);
+    out.to_mesh = rows(to_mesh);
+    // Normals go by the inverse transpose: row r is column r of the inverse.
+    for (int r = 0; r < 3; ++r)
+      out.normal_rows[r] = fit(Vec3d{to_mesh.linear[0][r], to_mesh.linear[1][r], to_mesh.linear[2][r]}, Quantity::kPlain, where, "the map placing a mesh");
+    flat.instance_transforms.push_back(out);
+  }
+}
+
 template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale) {
   std::vector<Primitive<double>> primitives, boundaries;
@@ -575,6 +722,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   // Where each primitive, boundary and triangle attribute was written, for messages.
   std::vector<PrimitiveOrigin> origins, boundary_origins;
   std::vector<std::string> attribute_objects;
+  std::vector<MeshPlacementUse> placements;
   for (std::size_t index = 0; index < scene.objects.size(); ++index) {
     const SceneObject object = scene.objects[index];
     const RigidTransform& xf = object.transform;
@@ -609,6 +757,15 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       primitives.push_back({make_quad(xf.apply_point(q->corner), xf.apply_vector(q->u), xf.apply_vector(q->v)), object.material});
     } else if (const auto* b = std::get_if<BoxSettings>(&object.shape)) {
       for (const Quad<double>& face : box_faces(*b, xf)) primitives.push_back({face, object.material});
+    } else if (const auto* m = std::get_if<MeshSettings>(&object.shape)) {
+      const AffineTransform placed = m->transform.then(AffineTransform::from_rigid(xf));
+      const MeshFile& file = *scene.mesh_files[m->file].file;
+      for (const MeshPlacement& placement : file.placements) {
+        if (file.meshes[placement.mesh].triangles.empty()) continue;
+        // The instance's mesh field holds its placement's index until the meshes are built.
+        primitives.push_back({MeshInstance<double>{static_cast<u32>(placements.size()), kNoTransform}, object.material});
+        placements.push_back(MeshPlacementUse{m->file, placement.mesh, placement.transform.then(placed), static_cast<u32>(index)});
+      }
     } else if (const auto* m = std::get_if<MediumSettings>(&object.shape)) {
       const RigidTransform boundary_xf = m->boundary_transform.then(xf);
       const u32 first = static_cast<u32>(boundaries.size());
@@ -622,6 +779,41 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     }
     origins.resize(primitives.size(), PrimitiveOrigin{static_cast<u32>(index), false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)});
   }
+  // Meshes: one build per mesh placed once (in world space) and one per mesh placed more often (in its own space),
+  // each instance's primitive pointed at its mesh and transform, and its bounds in world space.
+  std::vector<MeshBuild> meshes;
+  std::vector<AffineTransform> instance_maps;  // mesh space to world, per shared instance
+  std::vector<u32> instance_objects;           // the object placing each
+  std::vector<Aabb> instance_bounds(placements.size());
+  std::vector<u32> instance_mesh(placements.size()), instance_transform(placements.size(), kNoTransform);
+  {
+    std::map<std::pair<u32, u32>, u32> uses, shared;
+    for (const MeshPlacementUse& use : placements) ++uses[{use.file, use.mesh}];
+    for (std::size_t i = 0; i < placements.size(); ++i) {
+      const MeshPlacementUse& use = placements[i];
+      const std::pair<u32, u32> key{use.file, use.mesh};
+      if (uses[key] == 1) {
+        instance_mesh[i] = static_cast<u32>(meshes.size());
+        meshes.push_back(build_mesh(scene, use, use.transform));
+        instance_bounds[i] = Aabb{meshes.back().bvh.nodes[0].lo, meshes.back().bvh.nodes[0].hi};
+        continue;
+      }
+      auto it = shared.find(key);
+      if (it == shared.end()) {
+        it = shared.emplace(key, static_cast<u32>(meshes.size())).first;
+        meshes.push_back(build_mesh(scene, use, AffineTransform{}));
+      }
+      if (use.transform.determinant() == 0)
+        throw InputError(fmt::format("{}: /objects/{}: the transform placing mesh '{}' is singular (a scale of zero)", source_position(scene, "/objects/" + std::to_string(use.object)),
+                                     use.object, meshes[it->second].name));
+      instance_mesh[i] = it->second;
+      instance_transform[i] = static_cast<u32>(instance_maps.size());
+      instance_maps.push_back(use.transform);
+      instance_objects.push_back(use.object);
+      instance_bounds[i] = mapped_box(meshes[it->second].bvh.nodes[0], use.transform);
+    }
+  }
+
   // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
   if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
 
@@ -634,6 +826,8 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
         Aabb box;
         for (u32 i = 0; i < m->boundary_count; ++i) box.grow(geometry_bounds(boundaries[m->first_boundary + i], open, close));
         bounds.push_back(box);
+      } else if (const auto* instance = std::get_if<MeshInstance<double>>(&p.shape)) {
+        bounds.push_back(instance_bounds[instance->mesh]);
       } else {
         bounds.push_back(geometry_bounds(p, open, close));
       }
@@ -661,8 +855,20 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     camera.look_at = camera.look_at * scale;
     camera.focus_distance *= scale;
     camera.aperture *= scale;
+    for (MeshBuild& m : meshes) {
+      for (Vec3d& p : m.positions) p = p * scale;
+      for (BvhNode<double>& n : m.bvh.nodes) n.lo = n.lo * scale, n.hi = n.hi * scale;
+    }
+    for (AffineTransform& a : instance_maps) a.translation = a.translation * scale;
+    for (Aabb& b : instance_bounds) b.lo = b.lo * scale, b.hi = b.hi * scale;
     bounds = all_bounds();
   }
+  // The instances now point at their meshes and transforms.
+  for (Primitive<double>& p : primitives)
+    if (auto* instance = std::get_if<MeshInstance<double>>(&p.shape)) {
+      const u32 use = instance->mesh;
+      *instance = MeshInstance<double>{instance_mesh[use], instance_transform[use]};
+    }
 
   // Every value of the scene the kernels get, through Fit, which refuses one out of range naming where it was written
   // (in the file's order: camera, background, textures, materials, objects). Before the BVH, which needs finite bounds.
@@ -701,6 +907,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
   flat.bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
   make_perlin_tables(flat);
+  flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
   } catch (const DoesNotFit& e) {
     throw InputError(fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                                  scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
@@ -721,10 +928,12 @@ SceneView<T> FlatScene<T>::view() const {
 
 template <class T>
 std::size_t FlatScene<T>::bytes() const {
-  return nodes.size() * sizeof(nodes[0]) + wide_nodes.size() * sizeof(WideBvhNode<T>) + primitives.size() * sizeof(primitives[0]) + boundaries.size() * sizeof(boundaries[0]) +
-         triangle_attributes.size() * sizeof(TriangleAttributes<T>) + materials.size() * sizeof(Material<T>) +
-         textures.size() * sizeof(Texture<T>) + texels.size() + srgb_decode.size() * sizeof(float) + perlin_gradients.size() * sizeof(Vec3<T>) +
-         perlin_permutations.size() * sizeof(u32);
+  std::size_t total = 0;
+  place_scene(*this, [&](const auto& array, const char*) {
+    total += array.size() * sizeof(array[0]);
+    return array.data();
+  });
+  return total;
 }
 
 // Written out here rather than through the traversal's intersect_leaf: this is the reference the traversal is checked
@@ -733,12 +942,30 @@ template <class T>
 bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
   T closest = largest<T>();
   bool found = false;
+  const SceneView<T> view = scene.view();
   for (u32 i = 0; i < scene.primitives.size(); ++i) {
+    if (const auto* instance = std::get_if<MeshInstance<T>>(&scene.primitives[i].shape)) {
+      // Every triangle of the mesh, in its space.
+      Ray<T> local = ray;
+      if (instance->transform != kNoTransform) {
+        const AffineRows<T>& to_mesh = scene.instance_transforms[instance->transform].to_mesh;
+        local.origin = to_mesh.point(ray.origin);
+        local.direction = to_mesh.vector(ray.direction);
+      }
+      const MeshRecord& mesh = scene.meshes[instance->mesh];
+      MeshLeaf<T> leaf{view.meshes, mesh.first_vertex, local, hit};
+      if (leaf(mesh.first_triangle, mesh.triangle_count, closest)) {
+        hit.primitive = i;
+        found = true;
+      }
+      continue;
+    }
     Hit<T> candidate;
     if (intersect_primitive(scene.primitives[i], i, context, ray, hit_distance_min<T>(), closest, candidate)) {
       closest = candidate.t;
       hit = candidate;
       hit.primitive = i;
+      hit.triangle = 0;
       found = true;
     }
   }

@@ -96,56 +96,45 @@ PT_HD inline Vec3<T> slab_origin_terms(const Ray<T>& ray, const Vec3<T>& inv) {
                  Traits::slab_origin_term(ray.origin.z, inv.z)};
 }
 
-// Tests the primitives of a leaf, narrowing `closest`.
+// The slab-test form of a ray for the binary tree.
 template <class T>
-PT_HD inline bool intersect_leaf(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, u32 first, u32 count,
-                                 T& closest, Hit<T>& hit) {
-  bool found = false;
-  for (u32 i = first; i < first + count; ++i) {
-    Hit<T> candidate;
-    if (intersect_primitive(scene.primitives[i], i, context, ray, hit_distance_min<T>(), closest, candidate)) {
-      closest = candidate.t;
-      hit = candidate;
-      hit.primitive = i;
-      found = true;
-    }
-  }
-  return found;
-}
-
-// Closest hit along the ray (beyond zero) over the binary tree, by iterative traversal with a fixed-size stack.
-template <class T>
-PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+PT_HD inline BoxRay<T> make_box_ray(const Ray<T>& ray) {
   const Vec3<T> inv = slab_reciprocals(ray);
   constexpr u32 lo_x = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, x), hi_x = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, x);
   constexpr u32 lo_y = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, y), hi_y = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, y);
   constexpr u32 lo_z = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, z), hi_z = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, z);
   const bool neg_x = inv.x < T(0), neg_y = inv.y < T(0), neg_z = inv.z < T(0);
-  const BoxRay<T> box_ray{inv,
-                          slab_origin_terms(ray, inv),
-                          neg_x ? hi_x : lo_x,
-                          neg_y ? hi_y : lo_y,
-                          neg_z ? hi_z : lo_z,
-                          neg_x ? lo_x : hi_x,
-                          neg_y ? lo_y : hi_y,
-                          neg_z ? lo_z : hi_z};
+  return BoxRay<T>{inv,
+                   slab_origin_terms(ray, inv),
+                   neg_x ? hi_x : lo_x,
+                   neg_y ? hi_y : lo_y,
+                   neg_z ? hi_z : lo_z,
+                   neg_x ? lo_x : hi_x,
+                   neg_y ? lo_y : hi_y,
+                   neg_z ? lo_z : hi_z};
+}
+
+// Walks the binary tree rooted at `root` by iterative traversal with a fixed-size stack, calling
+// leaf(first, count, closest) for each leaf the ray enters in front of the closest hit so far; the leaf narrows
+// `closest` and returns whether it found a hit. The scene's tree and each mesh's tree are walked by this.
+template <class T, class Leaf>
+PT_HD inline bool walk_binary(const BvhNode<T>* nodes, u32 root, const BoxRay<T>& box_ray, T& closest, Leaf& leaf) {
   const T t_min = hit_distance_min<T>();
-  T closest = largest<T>();
   bool found = false;
   u32 stack[kBvhMaxDepth];
   u32 stack_size = 0;
-  u32 node_index = 0;
+  u32 node_index = root;
   T entry;
-  if (!ray_hits_box(scene.nodes[0], box_ray, t_min, closest, entry)) return false;
+  if (!ray_hits_box(nodes[root], box_ray, t_min, closest, entry)) return false;
   while (true) {
-    const BvhNode<T>& node = scene.nodes[node_index];
+    const BvhNode<T>& node = nodes[node_index];
     if (node.count > 0) {
-      found |= intersect_leaf(scene, ray, context, node.left_first, node.count, closest, hit);
+      found |= leaf(node.left_first, node.count, closest);
     } else {
       u32 near_child = node_index + 1, far_child = node.left_first;
       T near_entry, far_entry;
-      const bool near_hit = ray_hits_box(scene.nodes[near_child], box_ray, t_min, closest, near_entry);
-      const bool far_hit = ray_hits_box(scene.nodes[far_child], box_ray, t_min, closest, far_entry);
+      const bool near_hit = ray_hits_box(nodes[near_child], box_ray, t_min, closest, near_entry);
+      const bool far_hit = ray_hits_box(nodes[far_child], box_ray, t_min, closest, far_entry);
       if (near_hit && far_hit) {
         if (far_entry < near_entry) {
           const u32 swap = near_child;
@@ -270,45 +259,47 @@ inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, 
 }
 #endif
 
-// Tests the leaf children of a wide node that the ray entered (bit i of `leaves` for slot i), narrowing `closest`.
+// The box-test form of a ray for the wide tree: reciprocal direction, origin terms, and for each axis the plane row
+// it meets first (lo for a positive direction) and last.
 template <class T>
-PT_HD inline bool intersect_wide_leaves(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, const WideBvhNode<T>& node,
-                                        u32 leaves, T& closest, Hit<T>& hit) {
-  bool found = false;
-  while (leaves != 0) {
-    const u32 i = lowest_set_bit(leaves);
-    leaves &= leaves - 1u;
-    found |= intersect_leaf(scene, ray, context, node.child[i], node.count[i], closest, hit);
-  }
-  return found;
+struct WideRay {
+  Vec3<T> inv, origin_term;
+  PlaneRows rows;
+};
+
+template <class T>
+PT_HD inline WideRay<T> make_wide_ray(const Ray<T>& ray) {
+  const Vec3<T> inv = slab_reciprocals(ray);
+  return WideRay<T>{inv, slab_origin_terms(ray, inv),
+                    PlaneRows{inv.x < T(0) ? 3u : 0u, inv.y < T(0) ? 4u : 1u, inv.z < T(0) ? 5u : 2u, inv.x < T(0) ? 0u : 3u,
+                              inv.y < T(0) ? 1u : 4u, inv.z < T(0) ? 2u : 5u}};
 }
 
-// Closest hit along the ray (beyond zero) over the wide tree. Each node's boxes are tested together; leaves
-// among the children are intersected at once (they narrow `closest` before anything is pushed), the inner children
-// that were entered in front of the closest hit are visited nearest first, the rest pushed. The leaf tests are a
-// branch of their own, away from the loop over inner children: the primitive tests need many registers, and with
-// them inside that loop the compiler saved and restored the traversal's state around it at every node.
-template <class T>
-PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
-  const Vec3<T> inv = slab_reciprocals(ray);
-  const Vec3<T> origin_term = slab_origin_terms(ray, inv);
-  // Plane rows of the bounds: the plane each axis meets first (lo for a positive direction), and last.
-  const PlaneRows rows{inv.x < T(0) ? 3u : 0u, inv.y < T(0) ? 4u : 1u, inv.z < T(0) ? 5u : 2u,
-                       inv.x < T(0) ? 0u : 3u, inv.y < T(0) ? 1u : 4u, inv.z < T(0) ? 2u : 5u};
+// Walks the wide tree rooted at `root`, calling leaf(first, count, closest) as walk_binary does. Each node's boxes
+// are tested together; leaves among the children are intersected at once (they narrow `closest` before anything is
+// pushed), the inner children that were entered in front of the closest hit are visited nearest first, the rest
+// pushed. The leaf tests are a branch of their own, away from the loop over inner children: the primitive tests need
+// many registers, and with them inside that loop the compiler saved and restored the traversal's state around it at
+// every node.
+template <class T, class Leaf>
+PT_HD inline bool walk_wide(const WideBvhNode<T>* nodes, u32 root, const WideRay<T>& wide_ray, T& closest, Leaf& leaf) {
   const T t_min = hit_distance_min<T>();
-  T closest = largest<T>();
   bool found = false;
   u32 stack[kBvhMaxDepth * (kWideBvhWidth - 1)];
   u32 stack_size = 0;
-  u32 node_index = 0;
+  u32 node_index = root;
   while (true) {
-    const WideBvhNode<T>& node = scene.wide_nodes[node_index];
+    const WideBvhNode<T>& node = nodes[node_index];
     T entry[kWideBvhWidth];
-    const u32 entered = wide_box_test(node, rows, inv, origin_term, t_min, closest, entry);
-    const u32 leaves = entered & node.leaf_mask;
+    const u32 entered = wide_box_test(node, wide_ray.rows, wide_ray.inv, wide_ray.origin_term, t_min, closest, entry);
+    u32 leaves = entered & node.leaf_mask;
     u32 inner_mask = entered & node.inner_mask;
     if (leaves != 0) {
-      found |= intersect_wide_leaves(scene, ray, context, node, leaves, closest, hit);
+      while (leaves != 0) {
+        const u32 i = lowest_set_bit(leaves);
+        leaves &= leaves - 1u;
+        found |= leaf(node.child[i], node.count[i], closest);
+      }
       for (u32 rest = inner_mask; rest != 0; rest &= rest - 1u)  // a leaf may have hit something nearer
         if (entry[lowest_set_bit(rest)] > closest) inner_mask &= ~(1u << lowest_set_bit(rest));
     }
@@ -354,10 +345,114 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
   return found;
 }
 
-// Closest hit along the ray (beyond zero). GPU threads are the SIMD lanes already, and a wide node would lengthen
-// each thread's serial work, so GPUs walk the binary tree; host CPUs the wide one, testing a node's boxes at once.
-// Under AdaptiveCpp's single-pass compiler one source serves both: the choice is a branch that its run-time
-// compiler folds for the target at hand.
+// GPU threads are the SIMD lanes already, and a wide node would lengthen each thread's serial work, so GPUs walk the
+// binary tree; host CPUs the wide one, testing a node's boxes at once. Under AdaptiveCpp's single-pass compiler one
+// source serves both: the choice is a branch that its run-time compiler folds for the target at hand.
+template <class T, class Leaf>
+PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_nodes, u32 root, u32 wide_root, const Ray<T>& ray, T& closest,
+                            Leaf& leaf) {
+#if defined(__CUDA_ARCH__)
+  return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
+#elif defined(PT_ACPP_SINGLE_PASS)
+  __acpp_if_target_device(return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);)
+  return walk_wide(wide_nodes, wide_root, make_wide_ray(ray), closest, leaf);
+#else
+  (void)nodes;
+  (void)root;
+  return walk_wide(wide_nodes, wide_root, make_wide_ray(ray), closest, leaf);
+#endif
+}
+
+// The triangles of a mesh leaf, in the mesh's space.
+template <class T>
+struct MeshLeaf {
+  const MeshData<T>& meshes;
+  u32 first_vertex;
+  const Ray<T>& ray;  // in the mesh's space
+  Hit<T>& hit;
+  PT_HD bool operator()(u32 first, u32 count, T& closest) const {
+    bool found = false;
+    for (u32 i = first; i < first + count; ++i) {
+      const MeshTriangle& tri = meshes.triangles[i];
+      const Vec3<T>& p0 = meshes.positions[first_vertex + tri.vertex[0]];
+      const Triangle<T> triangle{p0, meshes.positions[first_vertex + tri.vertex[1]] - p0, meshes.positions[first_vertex + tri.vertex[2]] - p0, -1};
+      Hit<T> candidate;
+      if (intersect_triangle(triangle, ray, hit_distance_min<T>(), closest, candidate)) {
+        closest = candidate.t;
+        hit.t = candidate.t;
+        hit.b1 = candidate.b1;
+        hit.b2 = candidate.b2;
+        hit.triangle = i;
+        found = true;
+      }
+    }
+    return found;
+  }
+};
+
+// A mesh instance: the ray taken into the mesh's space (its direction is not renormalised, so distances along it
+// stay those of the world ray) and the mesh's own tree walked.
+template <class T>
+PT_HD inline bool intersect_instance(const MeshData<T>& meshes, const MeshInstance<T>& instance, const Ray<T>& ray, T& closest, Hit<T>& hit) {
+  Ray<T> local = ray;
+  if (instance.transform != kNoTransform) {
+    const AffineRows<T>& to_mesh = meshes.transforms[instance.transform].to_mesh;
+    local.origin = to_mesh.point(ray.origin);
+    local.direction = to_mesh.vector(ray.direction);
+  }
+  const MeshRecord& mesh = meshes.meshes[instance.mesh];
+  MeshLeaf<T> leaf{meshes, mesh.first_vertex, local, hit};
+  return walk_tree(meshes.nodes, meshes.wide_nodes, mesh.root, mesh.wide_root, local, closest, leaf);
+}
+
+// The primitives of a leaf of the scene's tree.
+template <class T>
+struct SceneLeaf {
+  const SceneView<T>& scene;
+  const Ray<T>& ray;
+  const IntersectContext<T>& context;
+  Hit<T>& hit;
+  PT_HD bool operator()(u32 first, u32 count, T& closest) const {
+    bool found = false;
+    for (u32 i = first; i < first + count; ++i) {
+      const Primitive<T>& primitive = scene.primitives[i];
+      if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
+        if (intersect_instance(scene.meshes, *instance, ray, closest, hit)) {
+          hit.primitive = i;
+          found = true;
+        }
+        continue;
+      }
+      Hit<T> candidate;
+      if (intersect_primitive(primitive, i, context, ray, hit_distance_min<T>(), closest, candidate)) {
+        closest = candidate.t;
+        hit = candidate;
+        hit.primitive = i;
+        hit.triangle = 0;
+        found = true;
+      }
+    }
+    return found;
+  }
+};
+
+// Closest hit along the ray (beyond zero) over the binary tree.
+template <class T>
+PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  T closest = largest<T>();
+  SceneLeaf<T> leaf{scene, ray, context, hit};
+  return walk_binary(scene.nodes, 0u, make_box_ray(ray), closest, leaf);
+}
+
+// Closest hit along the ray (beyond zero) over the wide tree.
+template <class T>
+PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+  T closest = largest<T>();
+  SceneLeaf<T> leaf{scene, ray, context, hit};
+  return walk_wide(scene.wide_nodes, 0u, make_wide_ray(ray), closest, leaf);
+}
+
+// Closest hit along the ray (beyond zero), over the tree the device walks best (walk_tree).
 template <class T>
 PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
 #if defined(__CUDA_ARCH__)

@@ -45,9 +45,9 @@ template <class T>
 PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random) {
   const u32 bounce = path.bounce++;
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
-  const Material<T>& material = scene.materials[primitive.material];
+  const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const bool needs_uv = material_needs_uv(material, scene.textures);
-  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, path.ray, hit, needs_uv);
+  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv);
   // Emission counts with the throughput of the path that reached it (the seed dropped this factor).
   path.radiance += path.throughput * material_emitted(material, at, scene.textures, scene.texture_data);
   Scatter<T> scatter;
@@ -68,7 +68,7 @@ PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, cons
 // The material class (variant index) a hit is shaded with: the wavefront integrator queues hits by it.
 template <class T>
 PT_HD inline u32 hit_material_class(const SceneView<T>& scene, const Hit<T>& hit) {
-  return static_cast<u32>(scene.materials[scene.primitives[hit.primitive].material].index());
+  return static_cast<u32>(scene.materials[material_of_hit(scene.primitives[hit.primitive], scene.meshes, hit)].index());
 }
 
 // One camera sample of pixel (x, y), traced to the end in one go (the megakernel integrator).

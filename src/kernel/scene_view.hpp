@@ -27,6 +27,7 @@ struct SceneView {
   const Primitive<T>* primitives;
   const Primitive<T>* boundaries;
   const TriangleAttributes<T>* triangle_attributes;
+  MeshData<T> meshes;
   const Material<T>* materials;
   const Texture<T>* textures;
   TextureData<T> texture_data;

@@ -49,8 +49,73 @@ PT_HD inline void quad_edges(const Quad<T>& q, Vec3<T>& u, Vec3<T>& v) {
 // `first_boundary` in the scene's boundary array. neg_inv_density = -1 / density.
 template <class T> struct ConstantMedium { u32 first_boundary, boundary_count; T neg_inv_density; };
 
+// ---- Triangle meshes ----
+// A mesh's vertices and triangles lie in arrays shared by all meshes (MeshData): positions, and where the mesh has
+// them, normals and texture coordinates, indexed per mesh from the mesh's first entries. A mesh has its own BVH
+// (built once however often it is placed); the scene's BVH holds instances, each placing a mesh by an affine map,
+// or with none where the mesh's vertices are stored in world space already (a mesh placed once).
+template <class T> struct BvhNode;
+template <class T> struct WideBvhNode;
+
+// Vertex indices within its mesh, and its material.
+struct MeshTriangle {
+  u32 vertex[3];
+  u32 material;
+};
+
+template <class T> struct MeshUv { T u, v; };
+
+inline constexpr u32 kNoAttributes = 0xffffffffu;
+
+struct MeshRecord {
+  u32 first_vertex;
+  u32 first_normal;  // kNoAttributes where the mesh has no normals
+  u32 first_uv;      // kNoAttributes where it has no texture coordinates
+  u32 root;          // its BVH's root in MeshData::nodes, and the same tree's in wide_nodes
+  u32 wide_root;
+  u32 first_triangle, triangle_count;  // its triangles in MeshData::triangles
+};
+
+// An affine map as the rows of its 3x4 matrix.
 template <class T>
-using Shape = std::variant<Sphere<T>, MovingSphere<T>, Triangle<T>, Quad<T>, ConstantMedium<T>>;
+struct AffineRows {
+  Vec3<T> row[3];
+  Vec3<T> translation;
+  PT_HD Vec3<T> vector(const Vec3<T>& v) const { return Vec3<T>{dot(row[0], v), dot(row[1], v), dot(row[2], v)}; }
+  PT_HD Vec3<T> point(const Vec3<T>& p) const { return vector(p) + translation; }
+  // |M| v: bounds how much the map can grow errors of size v.
+  PT_HD Vec3<T> abs_vector(const Vec3<T>& v) const { return Vec3<T>{dot(vabs(row[0]), v), dot(vabs(row[1]), v), dot(vabs(row[2]), v)}; }
+};
+
+// The world-to-mesh map rays are taken into, the mesh-to-world map hits are brought back by, and the rows of the
+// inverse transpose that carries normals (times the sign of the determinant, so orientation is kept).
+template <class T>
+struct InstanceTransform {
+  AffineRows<T> to_mesh, to_world;
+  Vec3<T> normal_rows[3];
+  PT_HD Vec3<T> normal(const Vec3<T>& n) const { return Vec3<T>{dot(normal_rows[0], n), dot(normal_rows[1], n), dot(normal_rows[2], n)}; }
+};
+
+inline constexpr u32 kNoTransform = 0xffffffffu;
+// An instance's Primitive::material where each triangle keeps its own.
+inline constexpr u32 kMeshMaterials = 0xffffffffu;
+
+template <class T> struct MeshInstance { u32 mesh; u32 transform; };  // transform: into MeshData::transforms, or kNoTransform
+
+template <class T>
+struct MeshData {
+  const Vec3<T>* positions;
+  const Vec3<T>* normals;
+  const MeshUv<T>* uvs;
+  const MeshTriangle* triangles;  // in BVH order per mesh; leaves index them directly
+  const MeshRecord* meshes;
+  const InstanceTransform<T>* transforms;
+  const BvhNode<T>* nodes;
+  const WideBvhNode<T>* wide_nodes;
+};
+
+template <class T>
+using Shape = std::variant<Sphere<T>, MovingSphere<T>, Triangle<T>, Quad<T>, ConstantMedium<T>, MeshInstance<T>>;
 
 template <class T>
 struct Primitive {
@@ -58,12 +123,14 @@ struct Primitive {
   u32 material;
 };
 
-// The closest hit found so far: distance, two surface parameters (barycentrics, quad coordinates) and which primitive.
+// The closest hit found so far: distance, two surface parameters (barycentrics, quad coordinates), which primitive,
+// and for a mesh instance which of the mesh triangles (an index into MeshData::triangles).
 template <class T>
 struct Hit {
   T t;
   T b1, b2;
   u32 primitive;
+  u32 triangle;
 };
 
 // What intersecting a medium needs besides the ray: its boundary and a random number for the free-flight distance.
@@ -162,6 +229,7 @@ PT_HD inline bool intersect_geometry(const Shape<T>& shape, const Ray<T>& ray, T
     PT_HD bool operator()(const Triangle<T>& tri) const { return intersect_triangle(tri, ray, t_min, t_max, hit); }
     PT_HD bool operator()(const Quad<T>& q) const { return intersect_quad(q, ray, t_min, t_max, hit); }
     PT_HD bool operator()(const ConstantMedium<T>&) const { return false; }
+    PT_HD bool operator()(const MeshInstance<T>&) const { return false; }  // walked by the BVH code (intersect_instance)
   };
   return visit(Intersect{ray, t_min, t_max, hit}, shape);
 }
@@ -249,11 +317,60 @@ PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_norm
 
 // Full description of the closest hit. With needs_uv false the texture coordinates of spheres are left at 0
 // (the material's textures do not read them); those of triangles and quads cost nothing and are always set.
+// The material a hit is shaded with: the primitive's, or for a mesh instance without one, the triangle's.
 template <class T>
-PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const TriangleAttributes<T>* triangle_attributes,
+PT_HD inline u32 material_of_hit(const Primitive<T>& primitive, const MeshData<T>& meshes, const Hit<T>& hit) {
+  return primitive.material != kMeshMaterials ? primitive.material : meshes.triangles[hit.triangle].material;
+}
+
+// A triangle's surface at a hit, from its first vertex and edges: the point, the unit geometric normal, the bound on
+// the point's error, and the shading normal and texture coordinates (interpolated where the vertices have them, the
+// geometric normal and the barycentrics where not).
+template <class T>
+struct TriangleSurface {
+  Vec3<T> p, geometric, error, shading;
+  T u, v;
+};
+
+template <class T>
+PT_HD inline TriangleSurface<T> triangle_surface(const Vec3<T>& p0, const Vec3<T>& edge1, const Vec3<T>& edge2, const Hit<T>& hit,
+                                                 const Vec3<T>* normals, const T* us, const T* vs) {
+  TriangleSurface<T> s;
+  const Vec3<T> area_normal = cross(edge1, edge2);
+  const T twice_area = length(area_normal);
+  s.geometric = area_normal / twice_area;
+  // From the barycentrics the point lies on the triangle's plane up to the rounding of the interpolation. A new
+  // test measures the distance to the plane through cross products of the edges, whose rounding, relative to
+  // that distance, grows as 1 / sin of the corner's angle, |e1| |e2| / |e1 x e2|.
+  const Vec3<T> along1 = hit.b1 * edge1, along2 = hit.b2 * edge2;
+  s.p = p0 + along1 + along2;
+  const T skew = length(edge1) * length(edge2) / twice_area;
+  const T roundings = constant<T>(kSpawnRoundings);
+  s.error = rounding_error(vabs(p0) + vabs(along1) + vabs(along2), roundings) + rounding_error(vabs(edge1) + vabs(edge2), roundings * skew);
+  const T b0 = T(1) - hit.b1 - hit.b2;
+  s.shading = s.geometric;
+  s.u = hit.b1;
+  s.v = hit.b2;
+  if (normals) {
+    const Vec3<T> interpolated = b0 * normals[0] + hit.b1 * normals[1] + hit.b2 * normals[2];
+    const T len2 = length_squared(interpolated);
+    if (len2 > T(0)) s.shading = interpolated / sqrt(len2);
+    // Keep the shading normal on the geometric side so the normal still tells front from back.
+    if (dot(s.shading, s.geometric) < T(0)) s.shading = -s.shading;
+  }
+  if (us) {
+    s.u = b0 * us[0] + hit.b1 * us[1] + hit.b2 * us[2];
+    s.v = b0 * vs[0] + hit.b1 * vs[1] + hit.b2 * vs[2];
+  }
+  return s;
+}
+
+template <class T>
+PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const TriangleAttributes<T>* triangle_attributes, const MeshData<T>& meshes,
                                           const Ray<T>& ray, const Hit<T>& hit, bool needs_uv = true) {
   struct Describe {
     const TriangleAttributes<T>* attributes;
+    const MeshData<T>& meshes;
     const Ray<T>& ray;
     const Hit<T>& hit;
     SurfacePoint<T>& at;
@@ -274,37 +391,57 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
     PT_HD void operator()(const Sphere<T>& s) const { sphere(s.center, s.radius); }
     PT_HD void operator()(const MovingSphere<T>& s) const { sphere(moving_sphere_center(s, ray.time), s.radius); }
     PT_HD void operator()(const Triangle<T>& tri) const {
-      const Vec3<T> area_normal = cross(tri.edge1, tri.edge2);
-      const T twice_area = length(area_normal);
-      const Vec3<T> geometric = area_normal / twice_area;
-      // From the barycentrics the point lies on the triangle's plane up to the rounding of the interpolation. A new
-      // test measures the distance to the plane through cross products of the edges, whose rounding, relative to
-      // that distance, grows as 1 / sin of the corner's angle, |e1| |e2| / |e1 x e2|.
-      const Vec3<T> along1 = hit.b1 * tri.edge1, along2 = hit.b2 * tri.edge2;
-      at.p = tri.p0 + along1 + along2;
-      const T skew = length(tri.edge1) * length(tri.edge2) / twice_area;
-      const T roundings = constant<T>(kSpawnRoundings);
-      set_spawn_offset(at, geometric, rounding_error(vabs(tri.p0) + vabs(along1) + vabs(along2), roundings) +
-                                          rounding_error(vabs(tri.edge1) + vabs(tri.edge2), roundings * skew));
-      at.front_face = dot(ray.direction, geometric) < T(0);
-      const T b0 = T(1) - hit.b1 - hit.b2;
-      Vec3<T> shading = geometric;
-      at.u = hit.b1;
-      at.v = hit.b2;
-      if (tri.attributes >= 0) {
-        const TriangleAttributes<T>& a = attributes[tri.attributes];
-        if (a.has_normals) {
-          const Vec3<T> interpolated = b0 * a.normal[0] + hit.b1 * a.normal[1] + hit.b2 * a.normal[2];
-          const T len2 = length_squared(interpolated);
-          if (len2 > T(0)) shading = interpolated / sqrt(len2);
-          // Keep the shading normal on the geometric side so the normal still tells front from back.
-          if (dot(shading, geometric) < T(0)) shading = -shading;
-        }
-        if (a.has_uvs) {
-          at.u = b0 * a.u[0] + hit.b1 * a.u[1] + hit.b2 * a.u[2];
-          at.v = b0 * a.v[0] + hit.b1 * a.v[1] + hit.b2 * a.v[2];
+      Vec3<T> normals[3];
+      T us[3], vs[3];
+      const TriangleAttributes<T>* a = tri.attributes >= 0 ? &attributes[tri.attributes] : nullptr;
+      if (a && a->has_normals)
+        for (int k = 0; k < 3; ++k) normals[k] = a->normal[k];
+      if (a && a->has_uvs)
+        for (int k = 0; k < 3; ++k) us[k] = a->u[k], vs[k] = a->v[k];
+      const TriangleSurface<T> s = triangle_surface(tri.p0, tri.edge1, tri.edge2, hit, a && a->has_normals ? normals : nullptr,
+                                                    a && a->has_uvs ? us : nullptr, vs);
+      set_triangle_point(s, s.geometric, s.shading);
+    }
+    PT_HD void operator()(const MeshInstance<T>& instance) const {
+      const MeshRecord& mesh = meshes.meshes[instance.mesh];
+      const MeshTriangle& tri = meshes.triangles[hit.triangle];
+      const Vec3<T>& p0 = meshes.positions[mesh.first_vertex + tri.vertex[0]];
+      Vec3<T> normals[3];
+      T us[3], vs[3];
+      for (int k = 0; k < 3; ++k) {
+        if (mesh.first_normal != kNoAttributes) normals[k] = meshes.normals[mesh.first_normal + tri.vertex[k]];
+        if (mesh.first_uv != kNoAttributes) {
+          const MeshUv<T>& uv = meshes.uvs[mesh.first_uv + tri.vertex[k]];
+          us[k] = uv.u;
+          vs[k] = uv.v;
         }
       }
+      TriangleSurface<T> s = triangle_surface(p0, meshes.positions[mesh.first_vertex + tri.vertex[1]] - p0, meshes.positions[mesh.first_vertex + tri.vertex[2]] - p0,
+                                              hit, mesh.first_normal != kNoAttributes ? normals : nullptr, mesh.first_uv != kNoAttributes ? us : nullptr, vs);
+      if (instance.transform == kNoTransform) return set_triangle_point(s, s.geometric, s.shading);
+      // Brought to the world: the point's error bound grows by the map's absolute rows, plus the rounding of the map
+      // itself, counted twice: once here and once where a new ray is taken back into the mesh's space.
+      const InstanceTransform<T>& xf = meshes.transforms[instance.transform];
+      const Vec3<T> p = xf.to_world.point(s.p);
+      s.error = xf.to_world.abs_vector(s.error) +
+                rounding_error(xf.to_world.abs_vector(vabs(s.p)) + vabs(xf.to_world.translation), constant<T>(2 * kSpawnRoundings));
+      s.p = p;
+      const Vec3<T> geometric = normalize(xf.normal(s.geometric));
+      Vec3<T> shading = geometric;
+      if (mesh.first_normal != kNoAttributes) {
+        const Vec3<T> turned = xf.normal(s.shading);
+        const T len2 = length_squared(turned);
+        if (len2 > T(0)) shading = turned / sqrt(len2);
+        if (dot(shading, geometric) < T(0)) shading = -shading;
+      }
+      set_triangle_point(s, geometric, shading);
+    }
+    PT_HD void set_triangle_point(const TriangleSurface<T>& s, const Vec3<T>& geometric, const Vec3<T>& shading) const {
+      at.p = s.p;
+      set_spawn_offset(at, geometric, s.error);
+      at.front_face = dot(ray.direction, geometric) < T(0);
+      at.u = s.u;
+      at.v = s.v;
       at.normal = at.front_face ? shading : -shading;
     }
     PT_HD void operator()(const Quad<T>& q) const {
@@ -329,8 +466,8 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
   };
   SurfacePoint<T> at{};
   at.p = ray.at(hit.t);
-  at.material = primitive.material;
-  visit(Describe{triangle_attributes, ray, hit, at, needs_uv}, primitive.shape);
+  at.material = material_of_hit(primitive, meshes, hit);
+  visit(Describe{triangle_attributes, meshes, ray, hit, at, needs_uv}, primitive.shape);
   return at;
 }
 

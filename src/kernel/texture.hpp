@@ -17,8 +17,9 @@ template <class T> struct CheckerTexture { Color<T> odd, even; T cells_per_unit;
 // Checker in texture coordinates: `columns` x `rows` cells over [0,1]^2.
 template <class T> struct UvCheckerTexture { Color<T> odd, even; T columns, rows; };
 
-// An image in the scene's shared texel buffer (linear RGB floats), starting at texel `offset`.
-template <class T> struct ImageTexture { u32 width, height, offset; T repeat; };
+// An image in the scene's shared texel buffer, starting at texel `offset`, times a colour factor (glTF's base colour
+// and emissive factors; 1 for a scene's own image textures).
+template <class T> struct ImageTexture { u32 width, height, offset; T repeat; Color<T> factor; };
 
 enum class NoiseKind : u32 { kPerlin = 0, kTurbulence = 1, kMarble = 2 };
 template <class T> struct NoiseTexture { T scale; NoiseKind kind; u32 turbulence_depth; };
@@ -130,7 +131,7 @@ PT_HD inline Color<T> texture_value(const Texture<T>& texture, const TexturePoin
       const i32 row = static_cast<i32>(floor(at.v * t.rows));
       return ((column + row) & 1) ? t.odd : t.even;
     }
-    PT_HD Color<T> operator()(const ImageTexture<T>& t) const { return image_lookup(data, t, at.u, at.v); }
+    PT_HD Color<T> operator()(const ImageTexture<T>& t) const { return t.factor * image_lookup(data, t, at.u, at.v); }
     PT_HD Color<T> operator()(const NoiseTexture<T>& t) const {
       const Vec3<T> p = t.scale * at.p;
       T value;

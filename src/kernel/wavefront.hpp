@@ -34,7 +34,8 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
   FIELD(T, t)                     \
   FIELD(T, b1)                    \
   FIELD(T, b2)                    \
-  FIELD(u32, primitive)
+  FIELD(u32, primitive)           \
+  FIELD(u32, triangle)
 
 #define PT_DECLARE_ARRAY(Type, name) Type* name;
 #define PT_ADD_BYTES(Type, name) +sizeof(Type)
@@ -77,12 +78,13 @@ struct PathHits {
     PT_PATH_HIT_FIELDS(PT_VISIT_ARRAY)
   }
 
-  PT_HD Hit<T> load(u32 i) const { return Hit<T>{t[i], b1[i], b2[i], primitive[i]}; }
+  PT_HD Hit<T> load(u32 i) const { return Hit<T>{t[i], b1[i], b2[i], primitive[i], triangle[i]}; }
   PT_HD void store(u32 i, const Hit<T>& hit) const {
     t[i] = hit.t;
     b1[i] = hit.b1;
     b2[i] = hit.b2;
     primitive[i] = hit.primitive;
+    triangle[i] = hit.triangle;
   }
 };
 

@@ -37,24 +37,6 @@ struct TriangleMesh {
                                                // an index into MeshFile::materials
 };
 
-// A general affine map x -> linear x + translation: model files scale and shear as well as rotate.
-struct AffineTransform {
-  double linear[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  Vec3d translation{};
-
-  static AffineTransform from_rigid(const RigidTransform& rigid);
-  static AffineTransform scaling(const Vec3d& factors);
-  // From a column-major 4x4 matrix whose last row is 0 0 0 1 (glTF's `matrix`).
-  static AffineTransform from_column_major(const double m[16]);
-  Vec3d apply_point(const Vec3d& p) const { return apply_vector(p) + translation; }
-  Vec3d apply_vector(const Vec3d& v) const;
-  Vec3d apply_normal(const Vec3d& n) const;  // by the inverse transpose, not normalised
-  AffineTransform then(const AffineTransform& outer) const;  // this first, then outer
-  AffineTransform inverse() const;  // of an invertible map (determinant != 0)
-  double determinant() const;
-  bool is_identity() const;
-};
-
 // A mesh of the file placed in the file's space: glTF nodes place meshes (a mesh may be placed several times);
 // OBJ and PLY place their meshes once each, unmoved.
 struct MeshPlacement {

@@ -46,6 +46,24 @@ struct RigidTransform {
   bool is_identity() const;
 };
 
+// A general affine map x -> linear x + translation: meshes are scaled and sheared as well as rotated.
+struct AffineTransform {
+  double linear[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  Vec3d translation{};
+
+  static AffineTransform from_rigid(const RigidTransform& rigid);
+  static AffineTransform scaling(const Vec3d& factors);
+  // From a column-major 4x4 matrix whose last row is 0 0 0 1 (glTF's `matrix`).
+  static AffineTransform from_column_major(const double m[16]);
+  Vec3d apply_point(const Vec3d& p) const { return apply_vector(p) + translation; }
+  Vec3d apply_vector(const Vec3d& v) const;
+  Vec3d apply_normal(const Vec3d& n) const;  // by the inverse transpose times the determinant's sign, not normalised
+  AffineTransform then(const AffineTransform& outer) const;  // this first, then outer
+  AffineTransform inverse() const;  // of an invertible map (determinant != 0)
+  double determinant() const;
+  bool is_identity() const;
+};
+
 struct MovingSphereSettings {
   Vec3d center0, center1;
   double radius;
@@ -72,11 +90,19 @@ struct MediumSettings {
   double density;
 };
 
-using ObjectShape = std::variant<Sphere<double>, MovingSphereSettings, TriangleSettings, QuadSettings, BoxSettings, MediumSettings>;
+// The meshes of a model file (SceneDescription::mesh_files), placed by an affine map after the file's own placements.
+struct MeshSettings {
+  u32 file;
+  AffineTransform transform;
+};
 
+using ObjectShape = std::variant<Sphere<double>, MovingSphereSettings, TriangleSettings, QuadSettings, BoxSettings, MediumSettings, MeshSettings>;
+
+// `material` indexes SceneDescription::materials; a mesh object without a material of its own has kMeshMaterials
+// (kernel/shapes.hpp): its triangles keep the model file's materials.
 struct SceneObject {
   ObjectShape shape;
-  RigidTransform transform;
+  RigidTransform transform;  // the identity for a mesh, which carries its own
   u32 material = 0;
 };
 
@@ -179,6 +205,14 @@ struct SceneSourceMap {
   std::string horizon = "/background/horizon", zenith = "/background/zenith";  // the background's two colours
 };
 
+struct MeshFile;  // meshes/mesh.hpp
+
+// A model file a scene places, read once however often it is placed; its materials were added to the scene's.
+struct SceneMeshFile {
+  std::shared_ptr<const MeshFile> file;
+  std::vector<u32> materials;  // per material of the file, its index in SceneDescription::materials
+};
+
 struct SceneDescription {
   std::string source;  // the file it came from, for messages
   SceneSourceMap written;  // where its parts were written in that file
@@ -189,6 +223,8 @@ struct SceneDescription {
   std::vector<u8> texels;  // every image texture's sRGB-encoded RGB texels (TextureImage), one after another
   std::vector<Material<double>> materials;
   ObjectList objects;
+  std::vector<SceneMeshFile> mesh_files;
+  std::vector<std::string> warnings;  // what is read but not rendered (a model file's unsupported features), one line each
 };
 
 }  // namespace pt

@@ -15,6 +15,7 @@
 
 #include "base/input_file.hpp"
 #include "image/image_io.hpp"
+#include "meshes/mesh.hpp"
 #include "scene/json_outline.hpp"
 #include "scene/json_positions.hpp"
 #include "scene/json_scan.hpp"
@@ -339,7 +340,7 @@ class SceneReader {
       if (name.empty()) file.fail("the image file name is empty");
       const double repeat = n.has("repeat") ? n.child("repeat").positive() : 1.0;
       const ImageRef image = load_image(file, name);
-      return add_texture(ImageTexture<double>{image.width, image.height, image.offset, repeat}, n.pointer());
+      return add_texture(ImageTexture<double>{image.width, image.height, image.offset, repeat, {1, 1, 1}}, n.pointer());
     }
     if (type == "noise") {
       n.allow_keys({"type", "kind", "scale", "turbulence_depth"});
@@ -460,11 +461,58 @@ class SceneReader {
 
   Sphere<double> read_sphere(const Node& n) { return {n.at("center").vec3(), n.at("radius").positive()}; }
 
+  // A mesh's transform: scale (one factor or three), then rotate, then translate.
+  AffineTransform read_mesh_transform(const Node& n) {
+    n.allow_keys({"scale", "rotate", "translate"});
+    Vec3d factors{1, 1, 1};
+    if (n.has("scale")) {
+      const Node scale = n.child("scale");
+      if (scale.json().is_number()) {
+        const double f = scale.number();
+        factors = {f, f, f};
+      } else {
+        factors = scale.vec3();
+      }
+      if (!(factors.x != 0 && factors.y != 0 && factors.z != 0)) scale.fail("a scale factor must not be zero");
+    }
+    const Vec3d degrees = n.has("rotate") ? n.child("rotate").vec3() : Vec3d{};
+    const Vec3d translation = n.has("translate") ? n.child("translate").vec3() : Vec3d{};
+    return AffineTransform::scaling(factors).then(AffineTransform::from_rigid(RigidTransform::from_euler_degrees(degrees, translation)));
+  }
+
+  // A model file, read once however many objects place it.
+  u32 read_mesh_file_reference(const Node& n) {
+    const std::filesystem::path path = base_folder_ / n.string();
+    const std::string key = path.lexically_normal().string();
+    if (const auto it = mesh_files_.find(key); it != mesh_files_.end()) return it->second;
+    try {
+      const u32 index = add_mesh_file(scene_, std::make_shared<const MeshFile>(read_mesh_file(path)), n.pointer());
+      mesh_files_.emplace(key, index);
+      return index;
+    } catch (const InputError& e) {
+      n.fail(e.what());
+    }
+  }
+
   void read_object(const Node& n) {
     const std::string type = n.at("type").string();
     SceneObject object;
-    if (n.has("transform")) object.transform = read_transform(n.child("transform"));
+    if (n.has("transform") && type != "mesh") object.transform = read_transform(n.child("transform"));
     const bool surface = type != "medium";
+    if (type == "mesh") {
+      n.allow_keys({"type", "file", "transform", "material"});
+      MeshSettings mesh{read_mesh_file_reference(n.at("file")), AffineTransform{}};
+      if (n.has("transform")) mesh.transform = read_mesh_transform(n.child("transform"));
+      object.shape = mesh;
+      object.material = kMeshMaterials;
+      if (n.has("material")) {
+        const Node material = n.child("material");
+        object.material = read_material_reference(material);
+        if (std::holds_alternative<Isotropic<double>>(scene_.materials[object.material])) material.fail("an isotropic material only belongs to a medium");
+      }
+      scene_.objects.push_back(object);
+      return;
+    }
     if (type == "sphere") {
       n.allow_keys({"type", "center", "radius", "material", "transform"});
       object.shape = read_sphere(n);
@@ -526,7 +574,7 @@ class SceneReader {
       }
       object.shape = medium;
     } else {
-      n.child("type").fail(fmt::format("unknown object type '{}' (expected sphere, moving_sphere, triangle, quad, box or medium)", type));
+      n.child("type").fail(fmt::format("unknown object type '{}' (expected sphere, moving_sphere, triangle, quad, box, medium or mesh)", type));
     }
     const Node material = n.at("material");
     object.material = read_material_reference(material);
@@ -541,9 +589,47 @@ class SceneReader {
   SceneDescription& scene_;
   std::map<std::string, u32> texture_names_, material_names_;
   std::map<std::string, ImageRef> images_;
+  std::map<std::string, u32> mesh_files_;
 };
 
 }  // namespace
+
+u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file, const std::string& pointer) {
+  SceneMeshFile entry;
+  // The file's textures, each added to the scene's texels once, where a material uses it.
+  std::vector<std::optional<u32>> texel_offsets(file->textures.size());
+  auto colour = [&](const Vec3d& factor, i32 texture) {
+    if (texture < 0 || static_cast<std::size_t>(texture) >= file->textures.size()) {
+      scene.textures.push_back(SolidTexture<double>{factor});
+    } else {
+      const TextureImage& image = file->textures[texture];
+      if (!texel_offsets[texture]) {
+        if (scene.texels.size() + image.srgb.size() > kMaxSceneTexelBytes)
+          throw InputError(fmt::format("{}: the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)",
+                                       file->path.string(), kMaxSceneTexelBytes >> 20));
+        texel_offsets[texture] = static_cast<u32>(scene.texels.size() / 3);
+        scene.texels.insert(scene.texels.end(), image.srgb.begin(), image.srgb.end());
+      }
+      scene.textures.push_back(ImageTexture<double>{image.width, image.height, *texel_offsets[texture], 1.0, factor});
+    }
+    scene.written.textures.push_back(pointer);
+    return static_cast<u32>(scene.textures.size() - 1);
+  };
+  for (const MeshMaterial& m : file->materials) {
+    // Emissive surfaces become lights (which do not also reflect); the others diffuse reflectors of the base colour.
+    const bool emits = m.emission_texture >= 0 || m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0;
+    if (emits)
+      scene.materials.push_back(DiffuseLight<double>{colour(m.emission, m.emission_texture)});
+    else
+      scene.materials.push_back(Lambertian<double>{colour(m.base_color, m.base_color_texture)});
+    scene.written.materials.push_back(pointer);
+    entry.materials.push_back(static_cast<u32>(scene.materials.size() - 1));
+  }
+  for (const std::string& warning : file->warnings) scene.warnings.push_back(fmt::format("{}: {}", file->path.string(), warning));
+  entry.file = std::move(file);
+  scene.mesh_files.push_back(std::move(entry));
+  return static_cast<u32>(scene.mesh_files.size() - 1);
+}
 
 namespace {
 

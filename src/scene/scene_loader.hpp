@@ -2,6 +2,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -19,6 +20,11 @@ SceneDescription parse_scene(std::string_view text, const std::string& source, c
 // that is unknown (a scene made in code, or a path not in the file). For messages about values found unfit after
 // parsing; it reads the text again, so it is meant for errors only.
 std::string source_position(const SceneDescription& scene, const std::string& pointer);
+
+// Adds a model file to the scene: its materials and textures (as the scene's own, MeshMaterial mapped onto them)
+// and the file to SceneDescription::mesh_files, whose index it returns; its warnings to the scene's. `pointer`
+// names the file's place in messages about its values. Throws InputError when the scene's images grow too large.
+u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file, const std::string& pointer);
 
 // Limits that keep a scene renderable: larger values are rejected as absurd rather than attempted.
 inline constexpr u32 kMaxImageSide = 16384;

@@ -61,13 +61,7 @@ void print_vec(const char* name, const V& v) {
 // backend runs has no place for a counter and should not get one for a diagnosis.
 template <class T>
 PT_HD bool counted_walk(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, u32& visits) {
-  const Vec3<T> inv = slab_reciprocals(ray);
-  constexpr u32 lo_x = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, x), hi_x = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, x);
-  constexpr u32 lo_y = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, y), hi_y = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, y);
-  constexpr u32 lo_z = offsetof(BvhNode<T>, lo) + offsetof(Vec3<T>, z), hi_z = offsetof(BvhNode<T>, hi) + offsetof(Vec3<T>, z);
-  const bool neg_x = inv.x < T(0), neg_y = inv.y < T(0), neg_z = inv.z < T(0);
-  const BoxRay<T> box_ray{inv,          slab_origin_terms(ray, inv), neg_x ? hi_x : lo_x, neg_y ? hi_y : lo_y, neg_z ? hi_z : lo_z,
-                          neg_x ? lo_x : hi_x, neg_y ? lo_y : hi_y, neg_z ? lo_z : hi_z};
+  const BoxRay<T> box_ray = make_box_ray(ray);
   T closest = largest<T>();
   bool found = false;
   u32 stack[kBvhMaxDepth];
@@ -78,7 +72,7 @@ PT_HD bool counted_walk(const SceneView<T>& scene, const Ray<T>& ray, const Inte
   while (++visits < kVisitLimit) {
     const BvhNode<T>& node = scene.nodes[node_index];
     if (node.count > 0) {
-      found |= intersect_leaf(scene, ray, context, node.left_first, node.count, closest, hit);
+      found |= SceneLeaf<T>{scene, ray, context, hit}(node.left_first, node.count, closest);
     } else {
       u32 near_child = node_index + 1, far_child = node.left_first;
       T near_entry, far_entry;
