@@ -84,39 +84,12 @@ SceneDescription random_scene(u64 seed) {
       RigidTransform::from_euler_degrees({0, 0, 0}, {-4, 3, 4})));
   // Meshes: one file placed three times (instances sharing one mesh, scaled, rotated, one mirrored), one placed once
   // (stored in world space).
-  auto soup = [&](int triangles) {
-    auto file = std::make_shared<MeshFile>();
-    file->path = "generated.ply";
-    TriangleMesh mesh;
-    mesh.name = "soup";
-    for (int i = 0; i < triangles; ++i) {
-      const Vec3d p = rng.vec3(-2, 2);
-      const double s = size();
-      for (const Vec3d& v : {p, p + s * rng.unit_vector(), p + s * rng.unit_vector()}) {
-        mesh.positions.push_back(v);
-        mesh.normals.push_back(rng.unit_vector());
-        mesh.uvs.push_back({rng.uniform(), rng.uniform()});
-      }
-      const u32 first = static_cast<u32>(3 * i);
-      mesh.triangles.push_back({first, first + 1, first + 2});
-    }
-    file->meshes.push_back(mesh);
-    file->materials.push_back(MeshMaterial{});
-    file->placements.push_back(MeshPlacement{0, AffineTransform{}});
-    return file;
-  };
-  const u32 shared = add_mesh_file(scene, soup(400), "/objects");
-  const u32 single = add_mesh_file(scene, soup(300), "/objects");
-  auto place = [&](u32 file, const Vec3d& scale, const Vec3d& degrees, const Vec3d& at) {
-    SceneObject o;
-    o.shape = MeshSettings{file, AffineTransform::scaling(scale).then(AffineTransform::from_rigid(RigidTransform::from_euler_degrees(degrees, at)))};
-    o.material = kMeshMaterials;
-    scene.objects.push_back(o);
-  };
-  place(shared, {1, 1, 1}, {0, 0, 0}, {5, 5, 5});
-  place(shared, {2, 0.5, 1.5}, {30, -20, 75}, {-6, 2, -4});
-  place(shared, {-1.5, 1.5, 1.5}, {0, 90, 10}, {4, -6, 1});
-  place(single, {1.2, 0.8, 1}, {-40, 15, 5}, {-3, -5, 6});
+  const u32 shared = add_mesh_file(scene, test::triangle_soup(rng, 400), "/objects");
+  const u32 single = add_mesh_file(scene, test::triangle_soup(rng, 300), "/objects");
+  test::place_mesh(scene, shared, {1, 1, 1}, {0, 0, 0}, {5, 5, 5});
+  test::place_mesh(scene, shared, {2, 0.5, 1.5}, {30, -20, 75}, {-6, 2, -4});
+  test::place_mesh(scene, shared, {-1.5, 1.5, 1.5}, {0, 90, 10}, {4, -6, 1});
+  test::place_mesh(scene, single, {1.2, 0.8, 1}, {-40, 15, 5}, {-3, -5, 6});
   return scene;
 }
 

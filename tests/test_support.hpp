@@ -28,6 +28,7 @@
 #include "film/film.hpp"
 #include "flat/flat_scene.hpp"
 #include "image/image_io.hpp"
+#include "meshes/mesh.hpp"
 #include "scene/scene_loader.hpp"
 
 #ifndef PT_SOURCE_DIR
@@ -114,6 +115,41 @@ struct TestRandom {
   }
   u32 below(u32 n) { return static_cast<u32>(next() % n); }
 };
+
+// A model file made in memory: `count` separate triangles in [-2, 2]^3 with edges of `size` (0.02 to 1,
+// log-uniform, where 0), random normals and uvs, one default material and one placement.
+inline std::shared_ptr<MeshFile> triangle_soup(TestRandom& rng, int count, double size = 0) {
+  auto file = std::make_shared<MeshFile>();
+  file->path = "generated.ply";
+  TriangleMesh mesh;
+  mesh.name = "soup";
+  for (int i = 0; i < count; ++i) {
+    const Vec3d p = rng.vec3(-2, 2);
+    const double s = size > 0 ? size : 0.02 * std::pow(50.0, rng.uniform());
+    const Vec3d a = rng.unit_vector();  // drawn in a fixed order
+    const Vec3d b = rng.unit_vector();
+    for (const Vec3d& v : {p, p + s * a, p + s * b}) {
+      mesh.positions.push_back(v);
+      mesh.normals.push_back(rng.unit_vector());
+      const double u = rng.uniform();
+      mesh.uvs.push_back({u, rng.uniform()});
+    }
+    const u32 first = static_cast<u32>(3 * i);
+    mesh.triangles.push_back({first, first + 1, first + 2});
+  }
+  file->meshes.push_back(mesh);
+  file->materials.push_back(MeshMaterial{});
+  file->placements.push_back(MeshPlacement{0, AffineTransform{}});
+  return file;
+}
+
+// Places a model file of the scene by scale, then rotation (degrees about x, y, z), then translation.
+inline void place_mesh(SceneDescription& scene, u32 file, const Vec3d& scale, const Vec3d& degrees, const Vec3d& at, u32 material = kMeshMaterials) {
+  SceneObject o;
+  o.shape = MeshSettings{file, AffineTransform::scaling(scale).then(AffineTransform::from_rigid(RigidTransform::from_euler_degrees(degrees, at)))};
+  o.material = material;
+  scene.objects.push_back(o);
+}
 
 template <class T>
 Vec3<T> to(const Vec3d& v) {

@@ -181,6 +181,8 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
     return made;
   });
   const SceneDescription scene = phases.time("scene load", [&] { return load_scene_file(options.scene); });
+  if (!options.quiet)
+    for (const std::string& warning : scene.warnings) fmt::print(stderr, "warning: {}\n", escape_control_characters(warning));
   const RenderSettings settings = effective_settings(options, scene);
   const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene<T>(scene, settings); });
   phases.add("  of which BVH build", flat.bvh_seconds);

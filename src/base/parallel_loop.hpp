@@ -1,5 +1,5 @@
-// The one parallel primitive of host code (the CPU backend, image encoding): body(i) for every i in [0, count),
-// `grain` indices at a time, on a fixed number of threads. oneTBB's work-stealing scheduler in normal builds; plain
+// The parallel primitives of host code: a loop (the CPU backend, image encoding), body(i) for every i in [0, count),
+// `grain` indices at a time, on a fixed number of threads, and two tasks at once (the BVH builder's subtrees). oneTBB's work-stealing scheduler in normal builds; plain
 // std::threads taking chunks from an atomic counter in ThreadSanitizer builds, because Debian's libtbb is not
 // instrumented and ThreadSanitizer cannot see its synchronisation (every render would be reported as a race).
 #pragma once
@@ -11,6 +11,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include "kernel/platform.hpp"
@@ -55,5 +56,17 @@ class ParallelLoop {
   unsigned threads_;
   tbb::task_arena arena_;
 };
+
+// first() and second() at once (on oneTBB's default arena; nested calls share its threads), returning when both have.
+template <class First, class Second>
+void parallel_invoke(const First& first, const Second& second) {
+#if PT_CPU_STD_THREADS
+  std::thread other(second);
+  first();
+  other.join();
+#else
+  tbb::parallel_invoke(first, second);
+#endif
+}
 
 }  // namespace pt

@@ -1,8 +1,10 @@
-// Binned SAH BVH construction (16 bins per axis over primitive centroids).
+// Binned SAH BVH construction (16 bins per axis over primitive centroids), with large subtrees built in parallel.
 #include "flat/bvh_builder.hpp"
 
 #include <algorithm>
 #include <array>
+
+#include "base/parallel_loop.hpp"
 
 namespace pt {
 
@@ -24,28 +26,36 @@ class Builder {
 
   BuiltBvh build() {
     result_.nodes.reserve(2 * bounds_.size());
-    build_node(0, static_cast<u32>(bounds_.size()), 1);
+    result_.depth = build_node(0, static_cast<u32>(bounds_.size()), 1, result_.nodes);
     return std::move(result_);
   }
 
  private:
-  void make_leaf(u32 index, u32 first, u32 count) {
-    result_.nodes[index].left_first = first;
-    result_.nodes[index].count = count;
+  // Subtrees of at least this many primitives have their two halves built at once, the second into a list of its
+  // own that is appended after the first. Every split is computed exactly as one thread computes it, and the nodes
+  // end up in the same depth-first order, so the tree does not depend on the number of threads.
+  static constexpr u32 kParallelSubtree = 16384;
+
+  static void make_leaf(std::vector<BvhNode<double>>& nodes, u32 index, u32 first, u32 count) {
+    nodes[index].left_first = first;
+    nodes[index].count = count;
   }
 
-  void build_node(u32 first, u32 count, u32 depth) {
-    result_.depth = std::max(result_.depth, depth);
-    const u32 index = static_cast<u32>(result_.nodes.size());
-    result_.nodes.push_back({});
+  // Builds the subtree over order[first, first + count) at the end of `nodes` (whose indices it uses); returns its depth.
+  u32 build_node(u32 first, u32 count, u32 depth, std::vector<BvhNode<double>>& nodes) {
+    const u32 index = static_cast<u32>(nodes.size());
+    nodes.push_back({});
     Aabb box, centroid_box;
     for (u32 i = first; i < first + count; ++i) {
       box.grow(bounds_[result_.order[i]]);
       centroid_box.grow(centroids_[result_.order[i]]);
     }
-    result_.nodes[index].lo = box.lo;
-    result_.nodes[index].hi = box.hi;
-    if (count <= 1 || depth >= kBvhMaxDepth) return make_leaf(index, first, count);
+    nodes[index].lo = box.lo;
+    nodes[index].hi = box.hi;
+    if (count <= 1 || depth >= kBvhMaxDepth) {
+      make_leaf(nodes, index, first, count);
+      return depth;
+    }
 
     // Best binned split over the three axes.
     double best_cost = largest<double>();
@@ -90,20 +100,40 @@ class Builder {
     u32 middle;
     if (best_axis < 0) {
       // All centroids coincide: no split separates them, so halve the list unless it is small.
-      if (count <= kMaxLeafSize) return make_leaf(index, first, count);
+      if (count <= kMaxLeafSize) {
+        make_leaf(nodes, index, first, count);
+        return depth;
+      }
       middle = first + count / 2;
     } else {
-      if (count <= kMaxLeafSize && leaf_cost <= split_cost) return make_leaf(index, first, count);
+      if (count <= kMaxLeafSize && leaf_cost <= split_cost) {
+        make_leaf(nodes, index, first, count);
+        return depth;
+      }
       const double lo = centroid_box.lo[best_axis], extent = centroid_box.hi[best_axis] - lo;
       const auto it = std::partition(result_.order.begin() + first, result_.order.begin() + first + count,
                                      [&](u32 p) { return bin_of(centroids_[p][best_axis], lo, extent) <= best_bin; });
       middle = static_cast<u32>(it - result_.order.begin());
     }
-    build_node(first, middle - first, depth + 1);
-    const u32 right = static_cast<u32>(result_.nodes.size());
-    build_node(middle, first + count - middle, depth + 1);
-    result_.nodes[index].left_first = right;
-    result_.nodes[index].count = 0;
+    u32 left_depth = 0, right_depth = 0;
+    if (count < kParallelSubtree) {
+      left_depth = build_node(first, middle - first, depth + 1, nodes);
+      nodes[index].left_first = static_cast<u32>(nodes.size());
+      right_depth = build_node(middle, first + count - middle, depth + 1, nodes);
+    } else {
+      std::vector<BvhNode<double>> right_nodes;
+      right_nodes.reserve(2 * (first + count - middle));
+      parallel_invoke([&] { left_depth = build_node(first, middle - first, depth + 1, nodes); },
+                      [&] { right_depth = build_node(middle, first + count - middle, depth + 1, right_nodes); });
+      const u32 offset = static_cast<u32>(nodes.size());
+      nodes[index].left_first = offset;
+      for (BvhNode<double> n : right_nodes) {
+        if (n.count == 0) n.left_first += offset;  // an interior node's second child; leaves index primitives
+        nodes.push_back(n);
+      }
+    }
+    nodes[index].count = 0;
+    return std::max(left_depth, right_depth);
   }
 
   static int bin_of(double value, double lo, double extent) {
@@ -112,7 +142,7 @@ class Builder {
   }
 
   const std::vector<Aabb>& bounds_;
-  std::vector<Vec3<double>> centroids_;
+  std::vector<Vec3<double>> centroids_;  // read by all threads, written before the build
   BuiltBvh result_;
 };
 

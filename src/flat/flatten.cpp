@@ -658,6 +658,15 @@ Aabb mapped_box(const BvhNode<double>& root, const AffineTransform& map) {
 template <class T>
 void flatten_meshes(const Fit<T>& fit, const std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
                     FlatScene<T>& flat) {
+  std::size_t vertices = 0, triangles = 0, nodes = 0;
+  for (const MeshBuild& m : meshes) {
+    vertices += m.positions.size();
+    triangles += m.triangles.size();
+    nodes += m.bvh.nodes.size();
+  }
+  flat.mesh_positions.reserve(vertices);
+  flat.mesh_triangles.reserve(triangles);
+  flat.mesh_nodes.reserve(nodes);
   for (const MeshBuild& m : meshes) {
     const std::string where = "/objects/" + std::to_string(m.object) + "/file";
     const std::string vertex = fmt::format("a vertex of mesh '{}'", m.name);
@@ -686,7 +695,9 @@ void flatten_meshes(const Fit<T>& fit, const std::vector<MeshBuild>& meshes, con
       flat.mesh_nodes.push_back(out);
     }
     record.wide_root = static_cast<u32>(flat.mesh_wide_nodes.size());
-    for (WideBvhNode<T> w : WideBvhBuilder<T>(m.bvh.nodes).build()) {
+    const std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T>(m.bvh.nodes).build();
+    if (flat.mesh_wide_nodes.empty()) flat.mesh_wide_nodes.reserve(wide.size());
+    for (WideBvhNode<T> w : wide) {
       for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
         if (w.leaf_mask & (1u << lane)) w.child[lane] += record.first_triangle;
         if (w.inner_mask & (1u << lane)) w.child[lane] += record.wide_root;
@@ -786,6 +797,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   std::vector<u32> instance_objects;           // the object placing each
   std::vector<Aabb> instance_bounds(placements.size());
   std::vector<u32> instance_mesh(placements.size()), instance_transform(placements.size(), kNoTransform);
+  const auto meshes_start = std::chrono::steady_clock::now();
   {
     std::map<std::pair<u32, u32>, u32> uses, shared;
     for (const MeshPlacementUse& use : placements) ++uses[{use.file, use.mesh}];
@@ -814,6 +826,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     }
   }
 
+  const double mesh_bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - meshes_start).count();
   // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
   if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
 
@@ -905,9 +918,9 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.nodes.reserve(bvh.nodes.size());
   for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
   flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
-  flat.bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
   make_perlin_tables(flat);
   flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
+  flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
   } catch (const DoesNotFit& e) {
     throw InputError(fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                                  scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));

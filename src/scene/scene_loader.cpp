@@ -5,7 +5,9 @@
 #include "scene/scene_loader.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <limits>
 #include <initializer_list>
 #include <map>
 #include <optional>
@@ -656,7 +658,52 @@ std::string source_position(const SceneDescription& scene, const std::string& po
   return at.line ? fmt::format("{}:{}:{}", scene.source, at.line, at.column) : scene.source;
 }
 
+namespace {
+
+bool is_model_file(const std::filesystem::path& file) {
+  std::string extension = file.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".obj" || extension == ".ply" || extension == ".gltf" || extension == ".glb";
+}
+
+// A camera that frames the box from the front (+z), a little above, with the whole box in a 40-degree view.
+CameraSettings framing_camera(const Vec3d& lo, const Vec3d& hi) {
+  CameraSettings camera;
+  const Vec3d center = (lo + hi) * 0.5;
+  const double radius = std::max(length(hi - lo) * 0.5, 1e-9);
+  camera.vertical_fov = 40;
+  const double distance = 1.1 * radius / std::sin(camera.vertical_fov * 3.14159265358979323846 / 360.0);
+  camera.look_at = center;
+  camera.look_from = center + normalize(Vec3d{0, 0.35, 1}) * distance;
+  camera.focus_distance = distance;
+  return camera;
+}
+
+}  // namespace
+
+SceneDescription scene_from_model_file(const std::filesystem::path& file) {
+  SceneDescription scene;
+  scene.source = file.string();
+  auto model = std::make_shared<const MeshFile>(read_mesh_file(file));
+  Vec3d lo = Vec3d::splat(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const MeshPlacement& placement : model->placements)
+    for (const std::array<u32, 3>& triangle : model->meshes[placement.mesh].triangles)
+      for (const u32 v : triangle) {
+        const Vec3d p = placement.transform.apply_point(model->meshes[placement.mesh].positions[v]);
+        lo = vmin(lo, p);
+        hi = vmax(hi, p);
+      }
+  if (!(lo.x <= hi.x)) throw InputError(fmt::format("{}: the model has no triangles to render", file.string()));
+  scene.camera = model->camera ? *model->camera : framing_camera(lo, hi);
+  SceneObject object;
+  object.shape = MeshSettings{add_mesh_file(scene, model, "(model)"), AffineTransform{}};
+  object.material = kMeshMaterials;
+  scene.objects.push_back(object);
+  return scene;
+}
+
 SceneDescription load_scene_file(const std::filesystem::path& file) {
+  if (is_model_file(file)) return scene_from_model_file(file);
   InputFile input = InputFile::open(file);
   switch (input.problem()) {
     case InputFile::Problem::kNone: break;

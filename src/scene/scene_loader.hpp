@@ -10,8 +10,13 @@
 
 namespace pt {
 
-// Reads and checks a scene file; image paths are relative to the file's folder. Throws InputError.
+// Reads and checks a scene file; image paths are relative to the file's folder. A model file (.obj, .ply, .gltf,
+// .glb) is a scene of its own (scene_from_model_file). Throws InputError.
 SceneDescription load_scene_file(const std::filesystem::path& file);
+
+// A scene of one model file: its meshes and materials, its camera where it has one (glTF) or else one that frames
+// it from the front, and the default sky. Throws InputError.
+SceneDescription scene_from_model_file(const std::filesystem::path& file);
 
 // Parses scene text; `source` names it in messages and `base_folder` resolves image paths. Throws InputError.
 SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);

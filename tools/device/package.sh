@@ -11,7 +11,7 @@ mkdir -p out/device/bin out/device/lib
 cp build/device/pathtracer out/device/bin/
 for t in build/device/tests/pt_tests build/device/tests/pt_fixed_point_tests; do [ -x "$t" ] && cp "$t" out/device/bin/; done
 for binary in out/device/bin/*; do
-  ldd "$binary" | awk '/=> \// {print $3}' | grep -E 'libtbb|libfmt|libOpenEXR|libstb|libImath|libIlmThread|libIex|libgtest|libbenchmark' | while read -r lib; do
+  ldd "$binary" | awk '/=> \// {print $3}' | grep -E 'libtbb|libfmt|libOpenEXR|libstb|libImath|libIlmThread|libIex|libgtest|libbenchmark|libtinyobjloader|libtinygltf' | while read -r lib; do
     cp -L "$lib" out/device/lib/
   done
 done

@@ -1,0 +1,185 @@
+// Triangle meshes in the kernels: a mesh's triangles are found where the same triangles written one by one are,
+// instances that share a mesh render like world-space copies of it, and materials go to the right triangles.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "test_support.hpp"
+
+namespace pt {
+namespace {
+
+using test::TestRandom;
+
+SceneDescription sky_scene() {
+  SceneDescription scene;
+  scene.source = "generated";
+  scene.camera.look_from = {0, 2, 12};
+  scene.camera.look_at = {0, 0, 0};
+  scene.camera.focus_distance = 12;
+  scene.camera.vertical_fov = 50;
+  scene.render.width = 64;
+  scene.render.height = 48;
+  scene.render.max_depth = 8;
+  return scene;
+}
+
+struct Placement {
+  Vec3d scale, degrees, at;
+};
+
+AffineTransform map_of(const Placement& p) {
+  return AffineTransform::scaling(p.scale).then(AffineTransform::from_rigid(RigidTransform::from_euler_degrees(p.degrees, p.at)));
+}
+
+// The triangles of a mesh placed by `map`, written as triangle objects (positions, normals and uvs mapped by hand).
+void add_as_triangles(SceneDescription& scene, const TriangleMesh& mesh, const AffineTransform& map, u32 material) {
+  for (const std::array<u32, 3>& t : mesh.triangles) {
+    TriangleSettings triangle;
+    std::array<Vec3d, 3> normals;
+    std::array<std::array<double, 2>, 3> uvs;
+    for (int k = 0; k < 3; ++k) {
+      triangle.vertices[k] = map.apply_point(mesh.positions[t[k]]);
+      normals[k] = normalize(map.apply_normal(mesh.normals[t[k]]));
+      uvs[k] = mesh.uvs[t[k]];
+    }
+    triangle.normals = normals;
+    triangle.uvs = uvs;
+    SceneObject o;
+    o.shape = triangle;
+    o.material = material;
+    scene.objects.push_back(o);
+  }
+}
+
+template <class T>
+class MeshHits : public ::testing::Test {};
+using ScalarTypes = ::testing::Types<float, double>;
+TYPED_TEST_SUITE(MeshHits, ScalarTypes);
+
+TYPED_TEST(MeshHits, MatchTheSameTrianglesWrittenOneByOne) {
+  // One file placed twice (instances sharing its mesh, rays taken into its space) and a copy placed once (stored in
+  // world space), against the same triangles mapped by hand into triangle objects: every ray finds the same surface
+  // (point, shading normal, side and texture coordinates) up to the rounding of the two ways of computing it.
+  using T = TypeParam;
+  TestRandom rng(2024);
+  const std::shared_ptr<MeshFile> soup = test::triangle_soup(rng, 300);
+  const std::vector<Placement> placements = {{{1, 1, 1}, {0, 0, 0}, {-3, 0, 0}}, {{1.5, 0.7, 1.2}, {20, 45, -30}, {3, 1, -1}}, {{0.8, 0.8, 0.8}, {-60, 10, 5}, {0, -2, 3}}};
+  SceneDescription meshes = sky_scene(), triangles = sky_scene();
+  const u32 shared = add_mesh_file(meshes, soup, "/objects");
+  const u32 single = add_mesh_file(meshes, std::make_shared<MeshFile>(*soup), "/objects");
+  test::place_mesh(meshes, shared, placements[0].scale, placements[0].degrees, placements[0].at);
+  test::place_mesh(meshes, shared, placements[1].scale, placements[1].degrees, placements[1].at);
+  test::place_mesh(meshes, single, placements[2].scale, placements[2].degrees, placements[2].at);
+  triangles.textures.push_back(SolidTexture<double>{{0.5, 0.5, 0.5}});
+  triangles.materials.push_back(Lambertian<double>{0});
+  for (const Placement& p : placements) add_as_triangles(triangles, soup->meshes[0], map_of(p), 0);
+
+  const FlatScene<T> a = test::flatten<T>(meshes), b = test::flatten<T>(triangles);
+  ASSERT_EQ(a.instance_transforms.size(), 2u);  // the shared mesh's two instances; the single one is in world space
+  const SceneView<T> va = a.view(), vb = b.view();
+  const double tolerance = std::is_same_v<T, float> ? 2e-4 : 1e-9;
+  int rays = 0, hits = 0, differ = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3d origin = rng.vec3(-7, 7);
+    const Vec3d target = rng.vec3(-4, 4);
+    const Ray<T> ray{test::to<T>(origin), test::to<T>(normalize(target - origin)), T(0)};
+    const SampleRandom random = SampleRandom::make(1, static_cast<u32>(i), 0);
+    Hit<T> ha{}, hb{};
+    const bool fa = closest_hit(va, ray, IntersectContext<T>{va.boundaries, &random, 0}, ha);
+    const bool fb = closest_hit(vb, ray, IntersectContext<T>{vb.boundaries, &random, 0}, hb);
+    ++rays;
+    if (fa != fb) {
+      ++differ;  // a ray through an edge, where the two ways round differently
+      continue;
+    }
+    if (!fa) continue;
+    ++hits;
+    const SurfacePoint<T> sa = describe_hit(a.primitives[ha.primitive], va.triangle_attributes, va.meshes, ray, ha);
+    const SurfacePoint<T> sb = describe_hit(b.primitives[hb.primitive], vb.triangle_attributes, vb.meshes, ray, hb);
+    const double scale = 1 + std::abs(static_cast<double>(sb.p.x)) + std::abs(static_cast<double>(sb.p.y)) + std::abs(static_cast<double>(sb.p.z));
+    const bool same = std::abs(static_cast<double>(ha.t - hb.t)) <= tolerance * scale &&
+                      static_cast<double>(length(sa.p - sb.p)) <= tolerance * scale && static_cast<double>(dot(sa.normal, sb.normal)) >= 1 - 10 * tolerance &&
+                      sa.front_face == sb.front_face && std::abs(static_cast<double>(sa.u - sb.u)) <= 10 * tolerance &&
+                      std::abs(static_cast<double>(sa.v - sb.v)) <= 10 * tolerance;
+    if (!same) {
+      // Overlapping triangles of the soup at the same distance may be found in either order.
+      if (std::abs(static_cast<double>(ha.t - hb.t)) <= tolerance * scale) continue;
+      ++differ;
+      ADD_FAILURE() << "ray " << i << ": t " << static_cast<double>(ha.t) << " vs " << static_cast<double>(hb.t);
+      if (differ > 5) break;
+    }
+  }
+  EXPECT_GT(hits, rays / 5);
+  EXPECT_LE(differ, rays / 1000) << differ << " of " << rays << " rays found different surfaces";
+}
+
+TEST(MeshMaterials, TrianglesKeepTheFileMaterialsUnlessTheObjectGivesOne) {
+  TestRandom rng(7);
+  auto file = test::triangle_soup(rng, 20);
+  file->materials = {MeshMaterial{}, MeshMaterial{}};
+  file->materials[0].base_color = {0.9, 0.1, 0.1};
+  file->materials[1].emission = {4, 4, 4};  // a light
+  for (std::size_t t = 0; t < file->meshes[0].triangles.size(); ++t) file->meshes[0].materials.push_back(static_cast<u32>(t % 2));
+  SceneDescription scene = sky_scene();
+  const u32 index = add_mesh_file(scene, file, "/objects");
+  ASSERT_EQ(scene.mesh_files[index].materials.size(), 2u);
+  const u32 red = scene.mesh_files[index].materials[0], light = scene.mesh_files[index].materials[1];
+  EXPECT_TRUE(std::holds_alternative<Lambertian<double>>(scene.materials[red]));
+  EXPECT_TRUE(std::holds_alternative<DiffuseLight<double>>(scene.materials[light]));
+  scene.textures.push_back(SolidTexture<double>{{0.2, 0.2, 0.9}});
+  scene.materials.push_back(Metal<double>{{0.9, 0.9, 0.9}, 0.1});
+  const u32 metal = static_cast<u32>(scene.materials.size() - 1);
+  test::place_mesh(scene, index, {1, 1, 1}, {0, 0, 0}, {-3, 0, 0});
+  test::place_mesh(scene, index, {1, 1, 1}, {0, 0, 0}, {3, 0, 0}, metal);
+  const FlatScene<double> flat = test::flatten<double>(scene);
+  const SceneView<double> view = flat.view();
+  std::vector<int> seen(scene.materials.size(), 0);
+  for (u32 p = 0; p < flat.primitives.size(); ++p) {
+    const auto& instance = std::get<MeshInstance<double>>(flat.primitives[p].shape);
+    const MeshRecord& mesh = flat.meshes[instance.mesh];
+    for (u32 t = mesh.first_triangle; t < mesh.first_triangle + mesh.triangle_count; ++t) {
+      Hit<double> hit{1, 0.2, 0.2, p, t};
+      const u32 m = material_of_hit(flat.primitives[p], view.meshes, hit);
+      ++seen[m];
+      if (flat.primitives[p].material == kMeshMaterials) EXPECT_TRUE(m == red || m == light);
+      else EXPECT_EQ(m, metal);
+    }
+  }
+  EXPECT_EQ(seen[red], 10);
+  EXPECT_EQ(seen[light], 10);
+  EXPECT_EQ(seen[metal], 20);
+}
+
+TEST(MeshInstances, RenderLikeWorldSpaceCopiesOfTheirMesh) {
+  // The same picture two ways: one file placed three times (one placement mirrors it), so the kernels take rays into
+  // the mesh's space and bring normals and spawn offsets back; and three copies of the file placed once each, stored
+  // in world space. The sampling differs (the rays are computed differently), so block means are compared within
+  // their noise (5.5 sigma, as the float-against-double tests).
+  TestRandom rng(99);
+  const std::shared_ptr<MeshFile> soup = test::triangle_soup(rng, 250, 0.6);
+  const std::vector<Placement> placements = {{{1, 1, 1}, {0, 0, 0}, {-3, 0, 0}}, {{1.5, 0.7, 1.2}, {20, 45, -30}, {3, 1, -1}}, {{-1, 1, 1}, {0, 30, 0}, {0, -1, 2}}};
+  SceneDescription instanced = sky_scene(), copies = sky_scene();
+  const u32 shared = add_mesh_file(instanced, soup, "/objects");
+  for (const Placement& p : placements) test::place_mesh(instanced, shared, p.scale, p.degrees, p.at);
+  for (const Placement& p : placements) test::place_mesh(copies, add_mesh_file(copies, std::make_shared<MeshFile>(*soup), "/objects"), p.scale, p.degrees, p.at);
+  const FlatScene<float> a = test::flatten<float>(instanced), b = test::flatten<float>(copies);
+  ASSERT_EQ(a.instance_transforms.size(), 3u);
+  ASSERT_EQ(b.instance_transforms.size(), 0u);
+  const test::PixelStatistics sa = test::sample_statistics(a, 256), sb = test::sample_statistics(b, 256);
+  EXPECT_EQ(sa.non_finite, 0u);
+  const std::vector<test::BlockDifference> blocks = test::compare_block_means(sa, sb, 16, 5.5, 1e-6, 1e-5);
+  std::size_t outside = 0;
+  for (const test::BlockDifference& d : blocks) outside += !d.within;
+  EXPECT_EQ(outside, 0u) << test::describe_blocks(blocks, 8, "instanced", "copies");
+  // The picture is not the sky alone: the meshes cover part of it, darker than the sky.
+  double darkest = 1e9;
+  for (const test::BlockDifference& d : blocks) darkest = std::min(darkest, d.mean_a);
+  EXPECT_LT(darkest, 0.6);
+}
+
+}  // namespace
+}  // namespace pt
