@@ -375,7 +375,7 @@ void check_required_extensions(Checker& c, const json& root) {
   }
 }
 
-std::vector<u64> check_buffers(Checker& c, const Arrays& arrays) {
+std::vector<u64> check_buffers(Checker& c, const Arrays& arrays, JsonFacts& facts) {
   std::vector<u64> lengths;
   if (!arrays.buffers) return lengths;
   const JsonCheckInput& input = c.input();
@@ -401,6 +401,7 @@ std::vector<u64> check_buffers(Checker& c, const Arrays& arrays) {
       continue;
     }
     const std::string file = c.file_uri(*uri, where);
+    facts.external_buffers.push_back(file);
     struct stat status {};
     if (::stat(file.c_str(), &status) != 0) {
       if (errno == ENOENT || errno == ENOTDIR) c.fail(where, fmt::format("buffer file '{}' does not exist", file));
@@ -780,7 +781,7 @@ JsonFacts check_gltf_json(const json& root, const JsonCheckInput& input) {
   c.index(root, "scene", "", size_of(arrays.scenes), "scenes");
 
   JsonFacts facts;
-  const std::vector<u64> buffer_lengths = check_buffers(c, arrays);
+  const std::vector<u64> buffer_lengths = check_buffers(c, arrays, facts);
   const std::vector<ViewRange> views = check_buffer_views(c, arrays, buffer_lengths);
   check_accessors(c, arrays, views);
   check_images(c, arrays, views.size(), facts);

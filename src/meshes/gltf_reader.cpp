@@ -256,7 +256,7 @@ class Converter {
       warn("extension " + extension, fmt::format("extension {} is not read: {}", extension, what));
     }
     if (!model_.animations.empty()) warn("animations", "animations are not played: nodes keep their transforms as written");
-    if (!model_.skins.empty()) warn("skins", "skins are not applied: skinned meshes are drawn in their bind pose, placed by their nodes");
+    if (!model_.skins.empty()) warn("skins", "skins are not applied: skinned meshes are drawn as stored (their bind pose), placed by their nodes");
     traverse();
     convert_meshes();
     if (out_.materials.empty()) out_.materials.push_back(gltf_default_material());
@@ -266,7 +266,9 @@ class Converter {
       warn("modes", fmt::format("points and lines are not rendered: {} primitives of mode {}", undrawn_, modes));
     }
     if (singular_placements_ > 0)
-      warn("singular", fmt::format("{} placements of meshes by nodes whose transform is singular (a scale of 0) are not drawn", singular_placements_));
+      warn("singular", fmt::format("{} placements of meshes by nodes whose transform is singular (a scale of 0) or too large to be finite are "
+                                   "not drawn",
+                                   singular_placements_));
   }
 
  private:
@@ -276,6 +278,15 @@ class Converter {
 
   void warn(const std::string& key, const std::string& message) {
     if (warned_.insert(key).second) out_.warnings.push_back(message);
+  }
+
+  // A transform that places a mesh: finite and invertible.
+  static bool usable(const AffineTransform& t) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (!std::isfinite(t.linear[i][j])) return false;
+    const double determinant = t.determinant();
+    return is_finite(t.translation) && determinant != 0 && std::isfinite(determinant);
   }
 
   // A node's own transform: its matrix, or T * R * S.
@@ -321,7 +332,7 @@ class Converter {
       const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(index)];
       const AffineTransform world = local_transform(node).then(parent);
       if (node.mesh >= 0) {
-        if (world.determinant() == 0 || !std::isfinite(world.determinant())) {
+        if (!usable(world)) {
           ++singular_placements_;
         } else {
           placed_.emplace_back(node.mesh, world);
@@ -342,9 +353,9 @@ class Converter {
     if (out_.camera) return;
     const Vec3d forward = world.apply_vector({0, 0, -1}), up = world.apply_vector({0, 1, 0});
     const double forward_length = length(forward), up_length = length(up);
-    if (!(forward_length > 0) || !(up_length > 0) || !std::isfinite(forward_length) || !std::isfinite(up_length) ||
+    if (!is_finite(world.translation) || !(forward_length > 0) || !(up_length > 0) || !std::isfinite(forward_length) || !std::isfinite(up_length) ||
         length(cross(forward, up)) <= 1e-12 * forward_length * up_length) {
-      warn("camera", fmt::format("camera {} is not used: node {} collapses its view direction", index, node));
+      warn("camera", fmt::format("camera {} is not used: the transform of node {} collapses its view or is not finite", index, node));
       return;
     }
     CameraSettings settings;
@@ -587,14 +598,21 @@ class Converter {
     return it->second;
   }
 
+  // The placed meshes, in the file's order; a mesh without triangles (of points and lines only) is left out with
+  // its placements.
   void convert_meshes() {
     collect_materials();
     std::map<int, u32> mesh_index;
     for (const int m : used_meshes_) {
+      TriangleMesh mesh = convert_mesh(m);
+      if (mesh.triangles.empty()) continue;
       mesh_index[m] = static_cast<u32>(out_.meshes.size());
-      out_.meshes.push_back(convert_mesh(m));
+      out_.meshes.push_back(std::move(mesh));
     }
-    for (const auto& [m, transform] : placed_) out_.placements.push_back(MeshPlacement{mesh_index[m], transform});
+    for (const auto& [m, transform] : placed_) {
+      const auto it = mesh_index.find(m);
+      if (it != mesh_index.end()) out_.placements.push_back(MeshPlacement{it->second, transform});
+    }
   }
 
   TriangleMesh convert_mesh(int index) {
@@ -750,6 +768,7 @@ MeshFile read_gltf_file(const std::filesystem::path& path) {
   FileAccess access;
   access.folder_prefix = folder_prefix;
   access.skipped.insert(facts.external_images.begin(), facts.external_images.end());
+  for (const std::string& buffer : facts.external_buffers) access.skipped.erase(buffer);  // a file that is both is read
   tinygltf::TinyGLTF loader;
   loader.SetFsCallbacks(tinygltf::FsCallbacks{&file_exists, &expand_file_path, &read_whole_file, &write_whole_file, &access});
   loader.SetImageLoader(&keep_image_bytes, nullptr);
@@ -766,7 +785,9 @@ MeshFile read_gltf_file(const std::filesystem::path& path) {
   } catch (const std::exception& e) {
     err = e.what();
   }
-  if (!loaded || !err.empty()) {
+  // When tinygltf succeeds, `err` may still hold its complaints about things glTF allows (a skin without
+  // inverseBindMatrices): the check above is what decides.
+  if (!loaded) {
     // What tinygltf says may quote a whole data URI: its first line, cut short.
     std::string said = err.substr(0, err.find('\n'));
     if (said.size() > 200) said = said.substr(0, 200) + "...";
