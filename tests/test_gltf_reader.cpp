@@ -687,6 +687,28 @@ TEST(GltfWrittenFiles, UnsupportedThingsAreRefusedWithTheirPath) {
   expect_refused(dir / "short.glb", {"short.glb: not a valid .glb: 8 bytes are too few"});
 }
 
+// tinygltf 2.7.0 checks the BIN chunk's length against the file's without the chunk's 8-byte header, and then
+// copies the buffer from up to 8 bytes past the end (AddressSanitizer: heap-buffer-overflow in ParseBuffer). The
+// reader refuses such a file before tinygltf sees it.
+TEST(GltfWrittenFiles, GlbWhoseBinChunkRunsPastTheFileIsRefused) {
+  test::TempDir dir;
+  std::string json_text = R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":12}]})";
+  while ((20 + json_text.size()) % 4 != 0) json_text += ' ';
+  std::string glb;
+  const auto u32 = [&](std::size_t v) {
+    for (int i = 0; i < 4; ++i) glb += static_cast<char>((v >> (8 * i)) & 255);
+  };
+  glb += "glTF";
+  u32(2);
+  u32(20 + json_text.size() + 12);
+  u32(json_text.size());
+  glb += "JSON" + json_text;
+  u32(12);  // a BIN chunk that says 12 bytes and holds 4
+  glb += std::string("BIN\0", 4) + "abcd";
+  test::write_text_file(dir / "short-bin.glb", glb);
+  expect_refused(dir / "short-bin.glb", {"short-bin.glb: not a valid .glb: its BIN chunk of 12 bytes does not fit in the file's"});
+}
+
 TEST(GltfWrittenFiles, SpecialFilesAreNotRead) {
   test::TempDir dir;
   // A FIFO as the model and as its buffer: refused at once, without blocking on them.
