@@ -618,6 +618,15 @@ TEST(GltfWrittenFiles, SkinWithoutInverseBindMatricesIsRead) {
   EXPECT_TRUE(has_warning(file, "skins are not applied")) << all_warnings(file);
 }
 
+TEST(GltfWrittenFiles, WarningsQuotingTheFileAreOneLine) {
+  test::TempDir dir;
+  Document d = one_triangle();
+  d.doc["extensionsUsed"] = {"EXT_\x1b[2Jnew\nline"};
+  const MeshFile file = read_gltf_file(d.write(dir, "escape.gltf"));
+  ASSERT_EQ(file.warnings.size(), 1u);
+  EXPECT_EQ(file.warnings[0], "extension EXT_\\x1b[2Jnew\\nline is not read: its effect is not rendered");
+}
+
 TEST(GltfWrittenFiles, PrimitiveWithoutNormalsBesideOneWithGetsFlatNormals) {
   test::TempDir dir;
   Document d;

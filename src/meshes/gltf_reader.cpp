@@ -276,8 +276,9 @@ class Converter {
     throw InputError(fmt::format("{}: {}: {}", name_, path, problem));
   }
 
+  // One warning for each kind of thing (`key`), one line whatever names from the file it quotes.
   void warn(const std::string& key, const std::string& message) {
-    if (warned_.insert(key).second) out_.warnings.push_back(message);
+    if (warned_.insert(key).second) out_.warnings.push_back(escape_control_characters(message));
   }
 
   // A transform that places a mesh: finite and invertible.
@@ -459,9 +460,9 @@ class Converter {
       }
       if (bad > 0) {
         source.normals.clear();
-        warn(fmt::format("normals {}", normal),
-             fmt::format("{}/NORMAL: {} of the {} normals of accessor {} are zero or not finite: its primitives are shaded with flat normals", attributes,
-                         bad, n.count, normal));
+        warn("bad normals", fmt::format("{}/NORMAL: {} of the {} normals of accessor {} are zero or not finite: primitives with such normals "
+                                        "(this is the first) are shaded with flat normals",
+                                        attributes, bad, n.count, normal));
       }
     }
     if (uv >= 0) {
