@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -260,6 +261,35 @@ TEST(TextureImages, GreyAlphaAndSixteenBitFilesReadAsRgb) {
   test::write_text_file(dir / "rgba.tga", tga(32, std::string("\x03\x02\x01\x80\x30\x20\x10\x00", 8)));
   image = read_texture_image(dir / "rgba.tga");
   EXPECT_EQ(image.srgb, (std::vector<u8>{0x01, 0x02, 0x03, 0x10, 0x20, 0x30}));
+}
+
+// Images embedded in model files go through the same decoding, size checks and limits as image files.
+TEST(TextureImages, FromMemoryMatchesTheFileAndKeepsItsLimits) {
+  test::TempDir dir;
+  write_image(dir / "texture.png", synthetic_image(6, 5));
+  const std::string bytes = test::read_text_file(dir / "texture.png");
+  const std::span<const u8> span(reinterpret_cast<const u8*>(bytes.data()), bytes.size());
+  const TextureImage from_file = read_texture_image(dir / "texture.png");
+  const TextureImage from_memory = read_texture_image_from_memory(span, "model.glb: /images/0");
+  EXPECT_EQ(from_memory.width, 6u);
+  EXPECT_EQ(from_memory.height, 5u);
+  EXPECT_EQ(from_memory.srgb, from_file.srgb);
+  // A PNG header claiming 20000x20000 texels, refused from the header.
+  std::string huge = bytes.substr(0, 33);
+  for (const int at : {16, 20}) {
+    huge[at] = 0, huge[at + 1] = 0, huge[at + 2] = static_cast<char>(20000 >> 8), huge[at + 3] = static_cast<char>(20000 & 255);
+  }
+  const auto expect_error = [](const std::string& data, const std::string& part) {
+    try {
+      read_texture_image_from_memory(std::span<const u8>(reinterpret_cast<const u8*>(data.data()), data.size()), "model.glb: /images/3");
+      ADD_FAILURE() << part;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  expect_error(huge, "image 'model.glb: /images/3' is 20000x20000 texels, larger than a texture may be");
+  expect_error("", "cannot read image 'model.glb: /images/3': it is empty");
+  expect_error("plain text", "cannot read image 'model.glb: /images/3'");
 }
 
 TEST(TextureImages, SrgbCurvesAreInverse) {

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -45,10 +46,10 @@ float linear_to_srgb(float c) {
 namespace {
 
 // A PNG's size from its header (the signature, then the IHDR chunk: length, type, width, height, big-endian), read
-// here because stb_image's own header check refuses very large PNGs without saying their size.
-bool png_header_size(int fd, u64& width, u64& height) {
-  unsigned char header[24];
-  if (::pread(fd, header, sizeof header, 0) != static_cast<ssize_t>(sizeof header)) return false;
+// here because stb_image's own header check refuses very large PNGs without saying their size. `header` holds the
+// first `size` bytes of the image.
+bool png_header_size(const unsigned char* header, std::size_t size, u64& width, u64& height) {
+  if (size < 24) return false;
   static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (std::memcmp(header, kSignature, 8) != 0 || std::memcmp(header + 12, "IHDR", 4) != 0) return false;
   const auto big_endian = [&](int at) { return (u64{header[at]} << 24) | (u64{header[at + 1]} << 16) | (u64{header[at + 2]} << 8) | header[at + 3]; };
@@ -60,21 +61,9 @@ bool png_header_size(int fd, u64& width, u64& height) {
 // The system's stb_image (2.27) writes past its Huffman tables when a JPEG's DHT segment declares more than 256
 // codes in one table (it sums the 16 counts but does not check the sum; later versions refuse it). Every place stb
 // could take for a DHT marker is a 0xFF byte followed by 0xC4 (fill bytes 0xFF before a marker included, in the
-// headers and between scans alike), so each is checked here, tables as stb reads them, before stb sees the file.
-// Returns false for such a file. Only files starting with 0xFF, as every JPEG does, are read.
-bool jpeg_huffman_tables_fit(int fd) {
-  unsigned char first = 0;
-  if (::pread(fd, &first, 1, 0) != 1 || first != 0xFF) return true;
-  struct stat status {};
-  if (::fstat(fd, &status) != 0 || status.st_size <= 0) return true;
-  std::vector<unsigned char> bytes(static_cast<std::size_t>(status.st_size));
-  std::size_t got = 0;
-  while (got < bytes.size()) {
-    const ssize_t n = ::pread(fd, bytes.data() + got, bytes.size() - got, static_cast<off_t>(got));
-    if (n <= 0) break;
-    got += static_cast<std::size_t>(n);
-  }
-  bytes.resize(got);
+// headers and between scans alike), so each is checked here, tables as stb reads them, before stb sees the image.
+// Returns false for such an image. Only images starting with 0xFF, as every JPEG does, need it.
+bool jpeg_huffman_tables_fit(std::span<const unsigned char> bytes) {
   const auto at = [&](std::size_t i) -> unsigned { return i < bytes.size() ? bytes[i] : 0u; };  // stb reads 0 past the end
   for (std::size_t marker = 0; marker + 1 < bytes.size(); ++marker) {
     if (bytes[marker] != 0xFF || bytes[marker + 1] != 0xC4) continue;
@@ -93,11 +82,109 @@ bool jpeg_huffman_tables_fit(int fd) {
   return true;
 }
 
-void check_texture_size(const std::filesystem::path& path, u64 width, u64 height) {
+// `subject` names the image in messages: "image file 'PATH'" or "image 'NAME'".
+void check_texture_size(const std::string& subject, u64 width, u64 height) {
   if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxTextureTexels)
-    throw InputError(fmt::format("image file '{}' is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
+    throw InputError(fmt::format("{} is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
                                  "see docs/scene-format.md)",
-                                 path.string(), width, height, kMaxTextureSide, kMaxTextureTexels));
+                                 subject, width, height, kMaxTextureSide, kMaxTextureTexels));
+}
+
+// Where an image's bytes come from: a file, which stb reads through its FILE interface (so that only the header is
+// read before the size is checked), or memory. decode_texture takes the same steps for both.
+class TextureSource {
+ public:
+  virtual ~TextureSource() = default;
+  // Up to `size` bytes from the start; returns how many there were.
+  virtual std::size_t header(unsigned char* out, std::size_t size) = 0;
+  // All the bytes (read only for the JPEG check).
+  virtual std::span<const unsigned char> all() = 0;
+  virtual bool stb_info(int* width, int* height, int* channels) = 0;
+  virtual unsigned char* stb_load(int* width, int* height, int* channels) = 0;
+};
+
+class FileTextureSource final : public TextureSource {
+ public:
+  FileTextureSource(int fd, std::FILE* file) : fd_(fd), file_(file) {}
+  std::size_t header(unsigned char* out, std::size_t size) override {
+    const ssize_t got = ::pread(fd_, out, size, 0);
+    return got > 0 ? static_cast<std::size_t>(got) : 0;
+  }
+  std::span<const unsigned char> all() override {
+    struct stat status {};
+    if (::fstat(fd_, &status) != 0 || status.st_size <= 0) return {};
+    bytes_.resize(static_cast<std::size_t>(status.st_size));
+    std::size_t got = 0;
+    while (got < bytes_.size()) {
+      const ssize_t n = ::pread(fd_, bytes_.data() + got, bytes_.size() - got, static_cast<off_t>(got));
+      if (n <= 0) break;
+      got += static_cast<std::size_t>(n);
+    }
+    bytes_.resize(got);
+    return bytes_;
+  }
+  bool stb_info(int* width, int* height, int* channels) override { return stbi_info_from_file(file_, width, height, channels) != 0; }
+  unsigned char* stb_load(int* width, int* height, int* channels) override { return stbi_load_from_file(file_, width, height, channels, 0); }
+
+ private:
+  int fd_;
+  std::FILE* file_;
+  std::vector<unsigned char> bytes_;
+};
+
+class MemoryTextureSource final : public TextureSource {
+ public:
+  explicit MemoryTextureSource(std::span<const unsigned char> bytes) : bytes_(bytes) {}
+  std::size_t header(unsigned char* out, std::size_t size) override {
+    const std::size_t n = std::min(size, bytes_.size());
+    if (n > 0) std::memcpy(out, bytes_.data(), n);
+    return n;
+  }
+  std::span<const unsigned char> all() override { return bytes_; }
+  bool stb_info(int* width, int* height, int* channels) override {
+    return stbi_info_from_memory(bytes_.data(), static_cast<int>(bytes_.size()), width, height, channels) != 0;
+  }
+  unsigned char* stb_load(int* width, int* height, int* channels) override {
+    return stbi_load_from_memory(bytes_.data(), static_cast<int>(bytes_.size()), width, height, channels, 0);
+  }
+
+ private:
+  std::span<const unsigned char> bytes_;
+};
+
+TextureImage decode_texture(TextureSource& source, const std::string& subject) {
+  // The size is checked from the header, before anything is decoded: a small file can claim an image of gigabytes.
+  unsigned char header[24];
+  const std::size_t header_size = source.header(header, sizeof header);
+  u64 png_width = 0, png_height = 0;
+  if (png_header_size(header, header_size, png_width, png_height)) check_texture_size(subject, png_width, png_height);
+  if (header_size > 0 && header[0] == 0xFF && !jpeg_huffman_tables_fit(source.all()))
+    throw InputError(fmt::format("cannot read {}: corrupt JPEG (a Huffman table of more than 256 codes)", subject));
+  int width = 0, height = 0, channels = 0;
+  if (!source.stb_info(&width, &height, &channels)) {
+    const char* reason = stbi_failure_reason();
+    throw InputError(fmt::format("cannot read {}: {}", subject, reason ? reason : "unknown format"));
+  }
+  check_texture_size(subject, static_cast<u64>(width), static_cast<u64>(height));
+  // Decoded with the image's own channels and expanded to RGB here, as stb_image would (grey repeated, alpha
+  // dropped): the system's stb_image (2.27) converts a 16-bit grey PGM to RGB as if it had 8-bit samples and then
+  // reads past the converted buffer.
+  unsigned char* pixels = source.stb_load(&width, &height, &channels);
+  if (!pixels) {
+    const char* reason = stbi_failure_reason();
+    throw InputError(fmt::format("cannot decode {}: {}", subject, reason ? reason : "unknown error"));
+  }
+  const std::unique_ptr<unsigned char, void (*)(void*)> owned_pixels(pixels, &stbi_image_free);
+  if (channels < 1 || channels > 4) throw InputError(fmt::format("cannot decode {}: {} channels", subject, channels));
+  TextureImage image;
+  image.width = static_cast<u32>(width);
+  image.height = static_cast<u32>(height);
+  const std::size_t texels = static_cast<std::size_t>(width) * height;
+  image.srgb.resize(3 * texels);
+  const int colour = channels >= 3 ? 3 : 1;  // grey (and alpha) or RGB (and alpha)
+  for (std::size_t i = 0; i < texels; ++i)
+    for (int c = 0; c < 3; ++c) image.srgb[3 * i + c] = pixels[channels * i + (colour == 3 ? c : 0)];
+  return image;
 }
 
 }  // namespace
@@ -111,41 +198,23 @@ TextureImage read_texture_image(const std::filesystem::path& path) {
     case InputFile::Problem::kNotRegular: throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
     case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), input.reason()));
   }
-  // The size is checked from the header, before anything is decoded: a small file can claim an image of gigabytes.
-  u64 png_width = 0, png_height = 0;
-  if (png_header_size(input.descriptor(), png_width, png_height)) check_texture_size(path, png_width, png_height);
-  if (!jpeg_huffman_tables_fit(input.descriptor()))
-    throw InputError(fmt::format("cannot read image file '{}': corrupt JPEG (a Huffman table of more than 256 codes)", path.string()));
+  const std::string subject = fmt::format("image file '{}'", path.string());
   std::FILE* file = ::fdopen(input.descriptor(), "rb");
-  if (!file) throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), std::strerror(errno)));
-  input.release();
+  if (!file) throw InputError(fmt::format("cannot read {}: {}", subject, std::strerror(errno)));
+  const int fd = input.release();
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> owned(file, &std::fclose);
-  int width = 0, height = 0, channels = 0;
-  if (!stbi_info_from_file(file, &width, &height, &channels)) {
-    const char* reason = stbi_failure_reason();
-    throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), reason ? reason : "unknown format"));
-  }
-  check_texture_size(path, static_cast<u64>(width), static_cast<u64>(height));
-  // Decoded with the file's own channels and expanded to RGB here, as stb_image would (grey repeated, alpha
-  // dropped): the system's stb_image (2.27) converts a 16-bit grey PGM to RGB as if it had 8-bit samples and then
-  // reads past the converted buffer.
-  unsigned char* pixels = stbi_load_from_file(file, &width, &height, &channels, 0);
-  if (!pixels) {
-    const char* reason = stbi_failure_reason();
-    throw InputError(fmt::format("cannot decode image file '{}': {}", path.string(), reason ? reason : "unknown error"));
-  }
-  const std::unique_ptr<unsigned char, void (*)(void*)> owned_pixels(pixels, &stbi_image_free);
-  if (channels < 1 || channels > 4)
-    throw InputError(fmt::format("cannot decode image file '{}': {} channels", path.string(), channels));
-  TextureImage image;
-  image.width = static_cast<u32>(width);
-  image.height = static_cast<u32>(height);
-  const std::size_t texels = static_cast<std::size_t>(width) * height;
-  image.srgb.resize(3 * texels);
-  const int colour = channels >= 3 ? 3 : 1;  // grey (and alpha) or RGB (and alpha)
-  for (std::size_t i = 0; i < texels; ++i)
-    for (int c = 0; c < 3; ++c) image.srgb[3 * i + c] = pixels[channels * i + (colour == 3 ? c : 0)];
-  return image;
+  FileTextureSource source(fd, file);
+  return decode_texture(source, subject);
+}
+
+TextureImage read_texture_image_from_memory(std::span<const u8> bytes, const std::string& name_for_messages) {
+  const std::string subject = fmt::format("image '{}'", name_for_messages);
+  if (bytes.empty()) throw InputError(fmt::format("cannot read {}: it is empty", subject));
+  // stb_image takes the length as an int.
+  if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw InputError(fmt::format("cannot read {}: {} bytes, more than an image may have", subject, bytes.size()));
+  MemoryTextureSource source(bytes);
+  return decode_texture(source, subject);
 }
 
 std::vector<float> srgb_decode_table() {

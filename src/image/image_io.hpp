@@ -3,6 +3,8 @@
 
 #include <filesystem>
 #include <functional>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "base/atomic_file.hpp"
@@ -44,6 +46,10 @@ inline constexpr u64 kMaxTextureTexels = u64{1} << 26;
 // Reads an 8-bit image (PNG, JPEG, BMP, TGA, ...) from a regular file, at most kMaxTextureSide on a side and
 // kMaxTextureTexels in all. Throws InputError.
 TextureImage read_texture_image(const std::filesystem::path& path);
+
+// The same for an image held in memory (one embedded in a model file), with the same checks and limits; messages
+// name it "image 'NAME'" where read_texture_image says "image file 'PATH'". Throws InputError.
+TextureImage read_texture_image_from_memory(std::span<const u8> bytes, const std::string& name_for_messages);
 
 // The linear value of each sRGB byte: srgb_to_linear(i / 255).
 std::vector<float> srgb_decode_table();
