@@ -741,6 +741,20 @@ TEST(ObjReader, CornersAreUnifiedAcrossPositionNormalAndUvIndices) {
   EXPECT_TRUE(same(other.positions[3], Vec3d{0, 1, 0}));
 }
 
+TEST(ObjReader, TinyobjloaderExtensionsAreSkipped) {
+  test::TempDir dir;
+  // Skin weights whose joint does not fit an int (tinyobjloader would convert it unchecked), and subdivision tags
+  // of the most values it allows (it would copy them all into every mesh after them): neither is read.
+  std::string text = kTriangleObj + "vw 0 1e300 0.5\n";
+  for (int i = 0; i < 10; ++i) text += "t crease 8192/8192/8192\n";
+  for (int i = 0; i < 10; ++i) text += fmt::format("g part{}\nf 1 2 3\n", i);
+  test::write_text_file(dir / "x.obj", text);
+  const MeshFile file = read_obj_file(dir / "x.obj");
+  expect_well_formed(file);
+  EXPECT_EQ(file.meshes.size(), 10u);
+  EXPECT_EQ(file.meshes[9].name, "part9");
+}
+
 TEST(ObjReader, NumbersAsTinyobjloaderReadsThem) {
   test::TempDir dir;
   // Exponents with and without signs, leading dots and plus signs; "3.1+e2" reads as its leading number.

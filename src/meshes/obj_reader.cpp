@@ -53,9 +53,9 @@ std::string decode_name(std::string name) {
   return name;
 }
 
-// Names from the file in messages: at most 60 characters of them.
+// Names from the file in messages: at most 60 characters of them, control characters escaped.
 std::string clip(std::string_view text) {
-  return text.size() <= 60 ? std::string(text) : std::string(text.substr(0, 57)) + "...";
+  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
 }
 
 // The lines of a text as tinyobjloader splits them (at "\n", "\r\n" or a lone "\r"), numbered from 1.
@@ -111,8 +111,9 @@ std::vector<std::string_view> words_of(std::string_view text) {
 }
 
 // Prepares the text in place, keeping its length and lines: blanks inside `usemtl` names are marked (see
-// kBlankInName), and skin weights (`vw`, a tinyobjloader extension the renderer has no use for, whose reader
-// converts unchecked numbers to int) become comments.
+// kBlankInName), and two tinyobjloader extensions the renderer has no use for become comments: skin weights (`vw`,
+// whose reader converts unchecked numbers to int) and subdivision tags (`t`, each of which may make room for 3 x 8192
+// values, copied into every mesh after it: a few KB of them would take gigabytes).
 void prepare_text(std::string& text) {
   std::size_t at = 0;
   while (at < text.size()) {
@@ -121,7 +122,7 @@ void prepare_text(std::string& text) {
     std::size_t k = at;
     while (k < stop && is_blank(text[k])) ++k;
     const std::string_view line(text.data() + k, stop - k);
-    if (line.size() > 2 && line.starts_with("vw") && is_blank(line[2])) {
+    if ((line.size() > 2 && line.starts_with("vw") && is_blank(line[2])) || (line.size() > 1 && line[0] == 't' && is_blank(line[1]))) {
       text[k] = '#';
     } else if (line.size() > 6 && line.starts_with("usemtl") && is_blank(line[6])) {
       std::size_t first = k + 6, last = stop;
@@ -180,7 +181,12 @@ class MaterialLibraries : public tinyobj::MaterialReader {
     }
     const std::string key = path.lexically_normal().string();
     if (!loaded_.insert(key).second) return false;
-    std::string text = read_model_input(path, fmt::format("{}: line {}: material library '{}'", obj_path_.string(), mtllib_line(name), path.string()), "file");
+    std::string text;
+    try {
+      text = read_model_input(path, "", "file");
+    } catch (const InputError& error) {  // ": cannot open the file: ...", after the place, found only now
+      throw InputError(fmt::format("{}: line {}: material library '{}'{}", obj_path_.string(), mtllib_line(name), path.string(), error.what()));
+    }
     const std::map<std::string, MaterialSource> sources = scan(text, path);
 
     MemoryBuffer buffer(text);
@@ -232,7 +238,8 @@ class MaterialLibraries : public tinyobj::MaterialReader {
         // tinyobjloader's name: everything after "newmtl" and one blank
         const std::size_t start = static_cast<std::size_t>(keyword.data() - line.data()) + 7;
         const std::string name(start <= line.size() ? line.substr(start) : std::string_view());
-        current = &sources.try_emplace(name, MaterialSource{library, lines.number()}).first->second;
+        const auto [entry, added] = sources.try_emplace(name, MaterialSource{library, lines.number()});
+        current = added ? &entry->second : nullptr;  // a second definition of a name is not the one used
       } else if (current) {
         if (keyword == "Kd") current->has_kd = true;
         else if (keyword == "Ke") current->has_ke = true;
@@ -378,7 +385,7 @@ class ObjReader {
     build_materials(parsed.materials, parsed.sources);
     if (!parsed.attrib.colors.empty()) warnings_.push_back("vertex colours are not rendered");
     out_.path = path_;
-    out_.warnings = std::move(warnings_);
+    for (std::string& warning : warnings_) out_.warnings.push_back(escape_control_characters(warning));  // text from the file, for a terminal
     return std::move(out_);
   }
 
@@ -660,7 +667,8 @@ class ObjReader {
   }
 
   MeshMaterial convert(const tinyobj::material_t& from, const MaterialSource& source, std::map<std::string, std::vector<std::string>>& unrendered) {
-    const std::string where = fmt::format("{}: line {}: material '{}'", source.library.filename().string(), source.line, clip(from.name));
+    const std::string where = source.line > 0 ? fmt::format("{}: line {}: material '{}'", source.library.filename().string(), source.line, clip(from.name))
+                                               : fmt::format("{}: material '{}'", source.library.filename().string(), clip(from.name));
     const auto color = [&](const tinyobj::real_t (&c)[3], std::string_view statement) {
       const Vec3d value{c[0], c[1], c[2]};
       if (!std::isfinite(value.x) || !std::isfinite(value.y) || !std::isfinite(value.z) || value.x < 0 || value.y < 0 || value.z < 0)

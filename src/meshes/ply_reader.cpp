@@ -109,9 +109,10 @@ enum class Format { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
 
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
-// Names from the file in messages: at most 60 characters of them.
+// Names from the file in messages: at most 60 characters of them, control characters escaped (warnings are
+// printed as they are; InputError escapes its message itself).
 std::string clip(std::string_view text) {
-  return text.size() <= 60 ? std::string(text) : std::string(text.substr(0, 57)) + "...";
+  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
 }
 
 std::vector<std::string_view> split_words(std::string_view line) {
