@@ -77,7 +77,7 @@ TEST_P(BackendParity, SyclImageMatchesCpuImageForTheSameSeed) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, BackendParity,
-                         ::testing::Values("tiny", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke"),
                          test::scene_test_name);
 
 }  // namespace

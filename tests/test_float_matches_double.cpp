@@ -57,6 +57,7 @@ constexpr u32 kSampleDivisor = 1;
 const std::vector<SceneCase>& scene_cases() {
   static const std::vector<SceneCase> cases = {
       {"tiny", 64, 48, 256, 0, 0},
+      {"meshes", 80, 48, 128, 0, 0},
       {"seed-default", 80, 48, 128, 0, 0},
       {"book1-final", 96, 64, 128, 0, 0},
       {"book2-final", 64, 64, 128, 0, 0},
@@ -140,7 +141,7 @@ TEST_P(FloatMatchesDouble, CudaBlockMeansAgreeWithCpuDoubleWithinNoise) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, FloatMatchesDouble,
-                         ::testing::Values("tiny", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "precision"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "precision"),
                          test::scene_test_name);
 
 // Scale invariance: float keeps the same relative precision at every magnitude, and with rays spawned robustly the

@@ -181,5 +181,30 @@ TEST(MeshInstances, RenderLikeWorldSpaceCopiesOfTheirMesh) {
   EXPECT_LT(darkest, 0.6);
 }
 
+TEST(ModelFiles, RenderDirectlyWithTheirOwnCameraOrOneThatFramesThem) {
+  // `pathtracer render MODEL`: a glTF file's camera (which sets no focus distance: the image plane lies at look_at)
+  // and, for a file without one, a camera that frames the model. Every sample finite, and the model in the picture.
+  std::vector<std::filesystem::path> models = {test::scene_path("models/knot.ply"), test::scene_path("models/pedestal.gltf")};
+  const std::filesystem::path engine = "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+  if (std::filesystem::exists(engine)) models.push_back(engine);
+  for (const std::filesystem::path& model : models) {
+    SceneDescription scene = load_scene_file(model);
+    scene.render.width = 48;
+    scene.render.height = 36;
+    scene.render.max_depth = 4;
+    const FlatScene<float> flat = test::flatten<float>(scene);
+    const test::PixelStatistics stats = test::sample_statistics(flat, 4);
+    EXPECT_EQ(stats.non_finite, 0u) << model;
+    // The model covers a good part of the picture: against the same camera's empty sky, many pixels differ.
+    SceneDescription sky = scene;
+    sky.objects = ObjectList{};
+    const test::PixelStatistics empty = test::sample_statistics(test::flatten<float>(sky), 1);
+    std::size_t covered = 0;
+    for (std::size_t i = 0; i < stats.mean.size(); i += 3)
+      covered += std::abs(stats.mean[i] + stats.mean[i + 1] + stats.mean[i + 2] - empty.mean[i] - empty.mean[i + 1] - empty.mean[i + 2]) > 0.05;
+    EXPECT_GT(covered, stats.mean.size() / 3 / 20) << model;
+  }
+}
+
 }  // namespace
 }  // namespace pt

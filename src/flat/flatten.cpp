@@ -523,9 +523,10 @@ Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
   const Vec3d w = normalize(c.look_from - c.look_at);
   const Vec3d u = normalize(cross(c.up, w));
   const Vec3d v = cross(w, u);
-  const Vec3d horizontal = c.focus_distance * viewport_width * u;
-  const Vec3d vertical = c.focus_distance * viewport_height * v;
-  const Vec3d lower_left = c.look_from - horizontal / 2.0 - vertical / 2.0 - c.focus_distance * w;
+  const double focus = c.focus_distance > 0 ? c.focus_distance : length(c.look_at - c.look_from);  // 0: at look_at
+  const Vec3d horizontal = focus * viewport_width * u;
+  const Vec3d vertical = focus * viewport_height * v;
+  const Vec3d lower_left = c.look_from - horizontal / 2.0 - vertical / 2.0 - focus * w;
   const double lens_radius = c.aperture / 2;
   return Camera<T>{to<T>(c.look_from), to<T>(lower_left), to<T>(horizontal), to<T>(vertical),
                    to<T>(u * lens_radius),  to<T>(v * lens_radius),  scalar<T>(c.shutter_open),
