@@ -8,12 +8,16 @@ seed makes them reproducible.
   spheres-225mb-bad-tail.json     that scene with a syntax error in its last bytes
   spheres-225mb-bad-last.json     that scene with a negative radius in its last object
   nested-100k.json       arrays nested 100,000 deep
+  bumpy-2m.ply           a bumpy sphere of 2,000,000 triangles (binary PLY, 50 MB), and bumpy-2m.json rendering it
+  bumpy-instances.json   bumpy-200k.ply (200,000 triangles) placed 100 times: 20 million triangles as instances
 
 Usage: python3 tools/scenes/make_stress_scenes.py [--out FOLDER]
 """
 
 import argparse
+import math
 import random
+import struct
 from pathlib import Path
 
 HEAD = """{
@@ -51,12 +55,62 @@ def write_spheres(path, count, last=None, tail="\n  ]\n}\n"):
         out.write(tail)
 
 
+def bumpy_sphere(path, rings):
+    """A sphere of rings x 2 rings quads (two triangles each) with a bumpy radius, as binary little-endian PLY."""
+    segments = 2 * rings
+    with open(path, "wb") as out:
+        out.write((f"ply\nformat binary_little_endian 1.0\nelement vertex {(rings + 1) * (segments + 1)}\n"
+                   "property float x\nproperty float y\nproperty float z\n"
+                   f"element face {2 * rings * segments}\nproperty list uchar int vertex_indices\nend_header\n").encode())
+        for r in range(rings + 1):
+            theta = math.pi * r / rings
+            row = bytearray()
+            for s in range(segments + 1):
+                phi = 2 * math.pi * s / segments
+                radius = 1 + 0.02 * math.sin(40 * theta) * math.sin(40 * phi)
+                row += struct.pack("<3f", radius * math.sin(theta) * math.cos(phi), radius * math.cos(theta), radius * math.sin(theta) * math.sin(phi))
+            out.write(row)
+        for r in range(rings):
+            row = bytearray()
+            for s in range(segments):
+                a = r * (segments + 1) + s
+                b = a + segments + 1
+                row += struct.pack("<B3iB3i", 3, a, b, a + 1, 3, a + 1, b, b + 1)
+            out.write(row)
+
+
+MESH_SCENE = """{{
+  "render": {{"width": 1280, "height": 720, "samples_per_pixel": 64, "max_depth": 8}},
+  "camera": {{"look_from": [{eye}], "look_at": [{at}], "vertical_fov": 40}},
+  "materials": {{"floor": {{"type": "lambertian", "albedo": [0.6, 0.6, 0.6]}}}},
+  "objects": [
+    {{"type": "quad", "corner": [-200, -1, -200], "u": [0, 0, 400], "v": [400, 0, 0], "material": "floor"}},
+{objects}
+  ]
+}}
+"""
+
+
+def mesh_scenes(out):
+    bumpy_sphere(out / "bumpy-2m.ply", 707)
+    mesh = '    {"type": "mesh", "file": "bumpy-2m.ply", "material": {"type": "metal", "albedo": [0.9, 0.8, 0.6], "fuzz": 0.2}}'
+    (out / "bumpy-2m.json").write_text(MESH_SCENE.format(eye="0, 1, 3.5", at="0, 0, 0", objects=mesh))
+    bumpy_sphere(out / "bumpy-200k.ply", 224)
+    placed = []
+    for i in range(10):
+        for j in range(10):
+            placed.append(f'    {{"type": "mesh", "file": "bumpy-200k.ply", "transform": {{"scale": 0.8, "rotate": [{7 * i}, {11 * j}, 0], '
+                          f'"translate": [{2.2 * (i - 4.5):.1f}, 0, {-2.2 * j:.1f}]}}}}')
+    (out / "bumpy-instances.json").write_text(MESH_SCENE.format(eye="0, 6, 9", at="0, 0, -8", objects=",\n".join(placed)))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="/tmp/pathtracer-stress")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    mesh_scenes(out)
     write_spheres(out / "spheres-1m.json", 1_000_000)
     big = 2_500_000
     write_spheres(out / "spheres-225mb.json", big)
