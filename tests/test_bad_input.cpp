@@ -78,6 +78,18 @@ std::vector<BadScene> bad_scenes() {
       {"SingleQuotes", with_object(R"({"type": 'sphere', "center": [2, 0, 0], "radius": 1, "material": "white"})"), "", "invalid JSON", "^'sphere'"},
       {"Comment", with("\"objects\": [", "\"objects\": [ // the objects\n"), "", "invalid JSON", "^// the"},
       {"Truncated", kBase.substr(0, kBase.find("\"camera\"") + 12), "", "invalid JSON", "\"camera\": {\"^"},
+      // Mesh objects: the model file, its transform and material.
+      {"MissingModelFile", with_object(R"({"type": "mesh", "file": "models/missing.ply"})"), "/objects/1/file", "missing.ply: cannot open the PLY file",
+       R"("file": ^"models/missing.ply")"},
+      {"ModelFileOfUnknownType", with_object(R"({"type": "mesh", "file": "textures/planet-1024x512.png"})"), "/objects/1/file",
+       "unknown model file type '.png'", R"("file": ^"textures/planet)"},
+      {"MeshScaledByZero", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scale": [1, 0, 1]}})"), "/objects/1/transform/scale",
+       "a scale factor must not be zero", R"("scale": ^[1, 0, 1])"},
+      {"MeshTransformKeyMisspelt", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scael": 2}})"), "/objects/1/transform/scael",
+       "did you mean 'scale'?", R"("scael": ^2)"},
+      {"MeshWithIsotropicMaterial",
+       with_object(R"({"type": "mesh", "file": "models/knot.ply", "material": {"type": "isotropic", "albedo": [0.5, 0.5, 0.5]}})"),
+       "/objects/1/material", "an isotropic material only belongs to a medium", R"("material": ^{"type": "isotropic")"},
       // Unknown and misspelt keys.
       {"MisspeltObjectKey", with_object(sphere + R"("radus": 1, "material": "white"})"), "/objects/1/radus", "unknown key 'radus' (did you mean 'radius'?)",
        R"("radus": ^1)"},
