@@ -160,7 +160,9 @@ Texture<T> fit_texture(const Fit<T>& fit, const Texture<double>& texture, const 
                                  fit(t.columns, Quantity::kPlain, at + "/columns"), fit(t.rows, Quantity::kPlain, at + "/rows")};
     }
     Texture<T> operator()(const ImageTexture<double>& t) const {
-      return ImageTexture<T>{t.width, t.height, t.offset, fit(t.repeat, Quantity::kPlain, at + "/repeat"), fit(t.factor, Quantity::kColour, at, "the colour factor")};
+      ImageTexture<T> out{t.width, t.height, t.offset, fit(t.repeat, Quantity::kPlain, at + "/repeat"), {}};
+      out.factor = fit(t.factor, Quantity::kColour, at, "the colour factor");
+      return out;
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
       return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth};
