@@ -35,8 +35,19 @@ LinearImage render_with(const std::string& backend, const SceneDescription& scen
 }
 
 // Renders the scene on the CPU at two seeds and on `backend` at the first, and checks the bound above.
+// A shipped scene by name, or one of the real models (Debian's assimp-testmodels) named in real_model_path.
+std::filesystem::path real_model_path(const std::string& name) {
+  const std::filesystem::path root = "/usr/share/assimp/models";
+  if (name == "engine_glb") return root / "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+  if (name == "box_textured_gltf") return root / "glTF2/BoxTextured-glTF/BoxTextured.gltf";
+  if (name == "spider_obj") return root / "OBJ/spider.obj";
+  if (name == "wuson_ply") return root / "PLY/Wuson.ply";
+  return {};
+}
+
 void expect_parity_with_cpu(const std::string& backend, const std::string& scene_name) {
-  const SceneDescription scene = load_scene_file(test::scene_path(scene_name + ".json"));
+  const std::filesystem::path model = real_model_path(scene_name);
+  const SceneDescription scene = load_scene_file(model.empty() ? test::scene_path(scene_name + ".json") : model);
   RenderSettings settings = scene.render;
   settings.width = 96;
   settings.height = 72;
@@ -64,6 +75,8 @@ TEST_P(BackendParity, GpuImageMatchesCpuImageForTheSameSeed) {
   GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
 #else
   if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  const std::filesystem::path model = real_model_path(GetParam());
+  if (!model.empty() && !std::filesystem::exists(model)) GTEST_SKIP() << model << " is not installed (assimp-testmodels)";
   expect_parity_with_cpu("cuda", GetParam());
 #endif
 }
@@ -72,12 +85,16 @@ TEST_P(BackendParity, SyclImageMatchesCpuImageForTheSameSeed) {
 #if !PT_HAVE_SYCL
   GTEST_SKIP() << "the SYCL backend is not built (configure with -DPT_SYCL=ON)";
 #else
+  const std::filesystem::path model = real_model_path(GetParam());
+  if (!model.empty() && !std::filesystem::exists(model)) GTEST_SKIP() << model << " is not installed (assimp-testmodels)";
   expect_parity_with_cpu("sycl", GetParam());
 #endif
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, BackendParity,
                          ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke"),
+                         test::scene_test_name);
+INSTANTIATE_TEST_SUITE_P(RealModels, BackendParity, ::testing::Values("engine_glb", "box_textured_gltf", "spider_obj", "wuson_ply"),
                          test::scene_test_name);
 
 }  // namespace

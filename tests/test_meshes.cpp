@@ -181,6 +181,71 @@ TEST(MeshInstances, RenderLikeWorldSpaceCopiesOfTheirMesh) {
   EXPECT_LT(darkest, 0.6);
 }
 
+TEST(LargeMeshes, TessellatedSphereIsHitWhereTheSphereIs) {
+  // A unit sphere of 200,000 triangles (a UV sphere with its vertices on the sphere), seen from 4 units away: a
+  // pinhole's ray meets it where the ray passes within 1 of the centre, less the tessellation's sag, which keeps the
+  // surface within [1 - D^2, 1] of the centre for an angular step D = pi / rings. So every ray passing within
+  // 1 - D^2 hits it, at a distance between the exact sphere's and that of the inner shell; every ray passing
+  // farther than 1 misses; and the share of rays that hit is the sphere's, within the shell's.
+  constexpr u32 rings = 224, segments = 2 * rings;
+  auto file = std::make_shared<MeshFile>();
+  file->path = "generated.ply";
+  TriangleMesh mesh;
+  mesh.name = "sphere";
+  const double pi = 3.14159265358979323846;
+  for (u32 r = 0; r <= rings; ++r)
+    for (u32 s = 0; s <= segments; ++s) {
+      const double theta = pi * r / rings, phi = 2 * pi * s / segments;
+      mesh.positions.push_back({std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)});
+    }
+  for (u32 r = 0; r < rings; ++r)
+    for (u32 s = 0; s < segments; ++s) {
+      const u32 a = r * (segments + 1) + s, b = a + segments + 1;
+      mesh.triangles.push_back({a, b, a + 1});
+      mesh.triangles.push_back({a + 1, b, b + 1});
+    }
+  file->meshes.push_back(std::move(mesh));
+  file->materials.push_back(MeshMaterial{});
+  file->placements.push_back(MeshPlacement{0, AffineTransform{}});
+  SceneDescription scene = sky_scene();
+  scene.camera.look_from = {0, 0, 4};
+  scene.camera.look_at = {0, 0, 0};
+  scene.camera.focus_distance = 4;
+  scene.camera.vertical_fov = 40;
+  test::place_mesh(scene, add_mesh_file(scene, file, "/objects"), {1, 1, 1}, {0, 0, 0}, {0, 0, 0});
+  const FlatScene<float> flat = test::flatten<float>(scene);
+  // The top pole's triangles have no area and are dropped (the bottom pole's vertices differ by rounding).
+  ASSERT_GE(flat.mesh_triangles.size(), 2u * rings * segments - 2 * segments);
+  ASSERT_LE(flat.mesh_triangles.size(), 2u * rings * segments - segments);
+  const SceneView<float> view = flat.view();
+  const double sag = (pi / rings) * (pi / rings);
+  u32 rays = 0, hits = 0, inside = 0, shell = 0, wrong = 0;
+  for (u32 y = 0; y < 300; ++y)
+    for (u32 x = 0; x < 400; ++x) {
+      const Vec3d direction = normalize(Vec3d{(x + 0.5) / 400 * 2 - 1, (y + 0.5) / 300 * 1.5 - 0.75, -2.0});
+      const Vec3d origin{0, 0, 4};
+      const double along = -dot(origin, direction);                     // to the point nearest the centre
+      const double miss = length(origin + along * direction);           // the ray's distance from the centre
+      const SampleRandom random = SampleRandom::make(1, x, y);
+      Hit<float> hit{};
+      const bool found = closest_hit(view, Ray<float>{test::to<float>(origin), test::to<float>(direction), 0.0f},
+                                     IntersectContext<float>{view.boundaries, &random, 0}, hit);
+      ++rays;
+      hits += found;
+      inside += miss < 1;
+      shell += miss >= 1 - sag && miss < 1;
+      if (miss < 1 - sag) {
+        const double outer = along - std::sqrt(1 - miss * miss), inner = along - std::sqrt(std::max(0.0, (1 - sag) * (1 - sag) - miss * miss));
+        wrong += !found || hit.t < outer - 1e-4 || hit.t > inner + 1e-4;
+      } else if (miss > 1 + 1e-6) {
+        wrong += found;
+      }
+    }
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GT(inside, rays / 10);
+  EXPECT_LE(std::abs(static_cast<double>(hits) - inside), shell + 1.0) << hits << " hits, " << inside << " rays within the sphere";
+}
+
 TEST(ModelFiles, RenderDirectlyWithTheirOwnCameraOrOneThatFramesThem) {
   // `pathtracer render MODEL`: a glTF file's camera (which sets no focus distance: the image plane lies at look_at)
   // and, for a file without one, a camera that frames the model. Every sample finite, and the model in the picture.

@@ -9,7 +9,8 @@ seed makes them reproducible.
   spheres-225mb-bad-last.json     that scene with a negative radius in its last object
   nested-100k.json       arrays nested 100,000 deep
   bumpy-2m.ply           a bumpy sphere of 2,000,000 triangles (binary PLY, 50 MB), and bumpy-2m.json rendering it
-  bumpy-instances.json   bumpy-200k.ply (200,000 triangles) placed 100 times: 20 million triangles as instances
+  bumpy-instances.json   bumpy-1m.ply           the same with 1,000,000 triangles, and bumpy-1m.json: diffuse, for the GPU's 1M-triangle figure
+  bumpy-200k.ply (200,000 triangles) placed 100 times: 20 million triangles as instances
 
 Usage: python3 tools/scenes/make_stress_scenes.py [--out FOLDER]
 """
@@ -95,6 +96,9 @@ def mesh_scenes(out):
     bumpy_sphere(out / "bumpy-2m.ply", 707)
     mesh = '    {"type": "mesh", "file": "bumpy-2m.ply", "material": {"type": "metal", "albedo": [0.9, 0.8, 0.6], "fuzz": 0.2}}'
     (out / "bumpy-2m.json").write_text(MESH_SCENE.format(eye="0, 1, 3.5", at="0, 0, 0", objects=mesh))
+    bumpy_sphere(out / "bumpy-1m.ply", 500)
+    mesh = '    {"type": "mesh", "file": "bumpy-1m.ply", "material": {"type": "lambertian", "albedo": [0.7, 0.6, 0.5]}}'
+    (out / "bumpy-1m.json").write_text(MESH_SCENE.format(eye="0, 1, 3.5", at="0, 0, 0", objects=mesh))
     bumpy_sphere(out / "bumpy-200k.ply", 224)
     placed = []
     for i in range(10):
