@@ -7,6 +7,8 @@ export LD_LIBRARY_PATH=$PWD/out/device/lib PT_SOURCE_DIR=$PWD PT_PATHTRACER_BINA
 PT=out/device/bin/pathtracer
 nvidia-smi --query-gpu=name --format=csv,noheader
 python3 -c "import sys; sys.path.insert(0,'tools/scenes'); import make_stress_scenes as m; from pathlib import Path; p=Path('/tmp/ms'); p.mkdir(exist_ok=True); m.mesh_scenes(p)" || echo "no python"
+# The real models of the tests (Debian's assimp-testmodels), where carried as out/assimp/.
+[ -d out/assimp ] && [ ! -d /usr/share/assimp/models ] && mkdir -p /usr/share/assimp && cp -r out/assimp /usr/share/assimp/models
 echo "== tests"
 timeout 300 out/device/bin/pt_tests --gtest_brief=1 --gtest_filter='*Cuda*:*Gpu*:*BackendParity*:*IntegratorEquivalence*:*Mesh*:ModelFiles*:RealModels*' > $OUT/tests.log 2>&1; echo "exit $?"; grep -E "PASSED|FAILED|tests ran" $OUT/tests.log | tail -8
 echo "== sanitizer"
