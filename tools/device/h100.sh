@@ -68,6 +68,7 @@ if [[ $steps == *pictures* ]]; then
   "$PT" render scenes/cornell-box.json --backend cuda --spp 4000 -q -o "$SCRATCH/cornell-box.png"
   "$PT" render scenes/cornell-smoke.json --backend cuda --spp 4000 -q -o "$SCRATCH/cornell-smoke.png"
   "$PT" render scenes/tiny.json --backend cuda --width 320 --height 240 --spp 1024 -q -o "$SCRATCH/tiny.png"
-  tar -C "$SCRATCH" -cf "$OUT/pictures.tar" seed-default.png book1-final.png book2-final.png cornell-box.png cornell-smoke.png tiny.png
+  "$PT" render scenes/meshes.json --backend cuda --width 640 --height 360 --spp 1024 -q -o "$SCRATCH/meshes.png"
+  tar -C "$SCRATCH" -cf "$OUT/pictures.tar" seed-default.png book1-final.png book2-final.png cornell-box.png cornell-smoke.png tiny.png meshes.png
   ls -la "$OUT"
 fi
