@@ -185,7 +185,7 @@ class ObjectList {
   template <std::size_t... I>
   ObjectShape load(u8 shape, u32 slot, std::index_sequence<I...>) const {
     ObjectShape out;
-    ((shape == I ? (out.template emplace<I>(std::get<I>(stores_)[slot]), true) : false) || ...);
+    (void)((shape == I ? (out.template emplace<I>(std::get<I>(stores_)[slot]), true) : false) || ...);
     return out;
   }
 
