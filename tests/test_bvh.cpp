@@ -18,11 +18,7 @@ namespace {
 using test::TestRandom;
 
 SceneDescription empty_scene() {
-  SceneDescription scene;
-  scene.source = "generated";
-  scene.camera.look_from = {0, 0, 30};
-  scene.camera.look_at = {0, 0, 0};
-  scene.camera.focus_distance = 30;
+  SceneDescription scene = test::generated_scene({0, 0, 30});
   scene.camera.shutter_open = 0;
   scene.camera.shutter_close = 1;
   scene.textures.push_back(SolidTexture<double>{{0.5, 0.5, 0.5}});

@@ -26,6 +26,15 @@
 namespace pt {
 namespace {
 
+using test::all_warnings;
+using test::expect_consistent;
+using test::expect_near;
+using test::expect_refused;
+using test::has_warning;
+using test::placed_bounds;
+using test::triangle_count;
+using test::vertex_count;
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
@@ -35,77 +44,6 @@ const fs::path kAssets = "/usr/share/assimp/models/glTF2";
   do {                                                                                                     \
     if (!fs::is_directory(kAssets)) GTEST_SKIP() << kAssets << " is absent (Debian's assimp-testmodels)"; \
   } while (false)
-
-// read_gltf_file must throw one InputError whose message holds each of `parts`.
-void expect_refused(const fs::path& file, std::initializer_list<std::string> parts) {
-  try {
-    read_gltf_file(file);
-    ADD_FAILURE() << file << " was read";
-  } catch (const InputError& e) {
-    const std::string message = e.what();
-    for (const std::string& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' is not in: " << message;
-  }
-}
-
-bool has_warning(const MeshFile& file, const std::string& part) {
-  return std::any_of(file.warnings.begin(), file.warnings.end(), [&](const std::string& w) { return w.find(part) != std::string::npos; });
-}
-
-std::string all_warnings(const MeshFile& file) {
-  std::string out;
-  for (const std::string& w : file.warnings) out += w + "\n";
-  return out;
-}
-
-u64 triangle_count(const MeshFile& file) {
-  u64 n = 0;
-  for (const TriangleMesh& mesh : file.meshes) n += mesh.triangles.size();
-  return n;
-}
-
-u64 vertex_count(const MeshFile& file) {
-  u64 n = 0;
-  for (const TriangleMesh& mesh : file.meshes) n += mesh.positions.size();
-  return n;
-}
-
-// The bounds of every placed vertex in the file's space.
-std::pair<Vec3d, Vec3d> placed_bounds(const MeshFile& file) {
-  const double inf = std::numeric_limits<double>::infinity();
-  Vec3d lo{inf, inf, inf}, hi{-inf, -inf, -inf};
-  for (const MeshPlacement& placement : file.placements)
-    for (const Vec3d& p : file.meshes.at(placement.mesh).positions) {
-      const Vec3d q = placement.transform.apply_point(p);
-      lo = vmin(lo, q);
-      hi = vmax(hi, q);
-    }
-  return {lo, hi};
-}
-
-void expect_near(const Vec3d& a, const Vec3d& b, double tolerance) {
-  EXPECT_NEAR(a.x, b.x, tolerance);
-  EXPECT_NEAR(a.y, b.y, tolerance);
-  EXPECT_NEAR(a.z, b.z, tolerance);
-}
-
-// Every index of every mesh names one of its vertices, and the per-vertex arrays have one entry per position.
-void expect_consistent(const MeshFile& file) {
-  ASSERT_FALSE(file.materials.empty());
-  for (const TriangleMesh& mesh : file.meshes) {
-    EXPECT_TRUE(mesh.normals.empty() || mesh.normals.size() == mesh.positions.size()) << mesh.name;
-    EXPECT_TRUE(mesh.uvs.empty() || mesh.uvs.size() == mesh.positions.size()) << mesh.name;
-    EXPECT_TRUE(mesh.materials.empty() || mesh.materials.size() == mesh.triangles.size()) << mesh.name;
-    for (const auto& t : mesh.triangles)
-      for (const u32 v : t) ASSERT_LT(v, mesh.positions.size()) << mesh.name;
-    for (const u32 m : mesh.materials) ASSERT_LT(m, file.materials.size()) << mesh.name;
-    for (const Vec3d& n : mesh.normals) ASSERT_NEAR(length(n), 1.0, 1e-9) << mesh.name;
-  }
-  for (const MeshPlacement& placement : file.placements) ASSERT_LT(placement.mesh, file.meshes.size());
-  for (const MeshMaterial& material : file.materials) {
-    EXPECT_LT(material.base_color_texture, static_cast<i32>(file.textures.size()));
-    EXPECT_LT(material.emission_texture, static_cast<i32>(file.textures.size()));
-  }
-}
 
 // --- Small glTF files written by the tests -------------------------------------------------------------------
 

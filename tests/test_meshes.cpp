@@ -15,11 +15,7 @@ namespace {
 using test::TestRandom;
 
 SceneDescription sky_scene() {
-  SceneDescription scene;
-  scene.source = "generated";
-  scene.camera.look_from = {0, 2, 12};
-  scene.camera.look_at = {0, 0, 0};
-  scene.camera.focus_distance = 12;
+  SceneDescription scene = test::generated_scene({0, 2, 12});
   scene.camera.vertical_fov = 50;
   scene.render.width = 64;
   scene.render.height = 48;

@@ -24,6 +24,15 @@
 namespace pt {
 namespace {
 
+using test::all_warnings;
+using test::expect_consistent;
+using test::expect_near;
+using test::expect_refused;
+using test::has_warning;
+using test::placed_bounds;
+using test::triangle_count;
+using test::vertex_count;
+
 const std::filesystem::path kModels = "/usr/share/assimp/models";
 
 #define REQUIRE_TEST_MODELS()                                                                  \
@@ -43,94 +52,19 @@ testing::AssertionResult same(const std::vector<Vec3d>& a, const std::vector<Vec
   return testing::AssertionSuccess();
 }
 
-u64 triangle_count(const MeshFile& file) {
-  u64 count = 0;
-  for (const TriangleMesh& mesh : file.meshes) count += mesh.triangles.size();
-  return count;
-}
-
-u64 vertex_count(const MeshFile& file) {
-  u64 count = 0;
-  for (const TriangleMesh& mesh : file.meshes) count += mesh.positions.size();
-  return count;
-}
-
-// The bounds of the positions the triangles use.
-std::pair<Vec3d, Vec3d> bounds_of(const MeshFile& file) {
-  const double inf = std::numeric_limits<double>::infinity();
-  Vec3d lo{inf, inf, inf}, hi{-inf, -inf, -inf};
-  for (const TriangleMesh& mesh : file.meshes)
-    for (const auto& triangle : mesh.triangles)
-      for (const u32 index : triangle) {
-        const Vec3d& p = mesh.positions.at(index);
-        lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-        hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-      }
-  return {lo, hi};
-}
-
 // Bounds from the reference script, which reads the text as doubles; the readers round a PLY file's float
 // properties to float, hence the tolerance.
-void expect_bounds(const MeshFile& file, Vec3d lo, Vec3d hi, double tolerance = 1e-6) {
-  const auto [got_lo, got_hi] = bounds_of(file);
-  EXPECT_NEAR(got_lo.x, lo.x, tolerance);
-  EXPECT_NEAR(got_lo.y, lo.y, tolerance);
-  EXPECT_NEAR(got_lo.z, lo.z, tolerance);
-  EXPECT_NEAR(got_hi.x, hi.x, tolerance);
-  EXPECT_NEAR(got_hi.y, hi.y, tolerance);
-  EXPECT_NEAR(got_hi.z, hi.z, tolerance);
-}
+void expect_bounds(const MeshFile& file, Vec3d lo, Vec3d hi, double tolerance = 1e-6) { test::expect_placed_bounds(file, lo, hi, tolerance); }
 
-// What every file read must satisfy: triangles and per-vertex arrays consistent, materials and placements valid.
+// What every file these readers give must satisfy besides consistency: one placement per mesh, at the origin.
 void expect_well_formed(const MeshFile& file) {
   ASSERT_FALSE(file.meshes.empty());
-  ASSERT_FALSE(file.materials.empty());
+  expect_consistent(file, 1e-12);
   EXPECT_EQ(file.placements.size(), file.meshes.size());
   for (std::size_t m = 0; m < file.meshes.size(); ++m) {
-    const TriangleMesh& mesh = file.meshes[m];
-    EXPECT_FALSE(mesh.name.empty());
+    EXPECT_FALSE(file.meshes[m].name.empty());
     EXPECT_EQ(file.placements[m].mesh, m);
     EXPECT_TRUE(file.placements[m].transform.is_identity());
-    EXPECT_TRUE(mesh.normals.empty() || mesh.normals.size() == mesh.positions.size());
-    EXPECT_TRUE(mesh.uvs.empty() || mesh.uvs.size() == mesh.positions.size());
-    EXPECT_TRUE(mesh.materials.empty() || mesh.materials.size() == mesh.triangles.size());
-    for (const auto& triangle : mesh.triangles)
-      for (const u32 index : triangle) ASSERT_LT(index, mesh.positions.size());
-    for (const u32 material : mesh.materials) ASSERT_LT(material, file.materials.size());
-    for (const Vec3d& p : mesh.positions) ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
-    for (const Vec3d& n : mesh.normals) ASSERT_NEAR(length(n), 1.0, 1e-12);
-  }
-  for (const MeshMaterial& material : file.materials) {
-    EXPECT_LT(material.base_color_texture, static_cast<i32>(file.textures.size()));
-    EXPECT_LT(material.emission_texture, static_cast<i32>(file.textures.size()));
-  }
-}
-
-bool has_warning(const MeshFile& file, const std::string& part) {
-  for (const std::string& warning : file.warnings)
-    if (warning.find(part) != std::string::npos) return true;
-  return false;
-}
-
-std::string all_warnings(const MeshFile& file) {
-  std::string text;
-  for (const std::string& warning : file.warnings) text += warning + "\n";
-  return text;
-}
-
-// Reading `path` must throw one InputError: one line, starting with the file's name, holding each of `parts` (the
-// place in the file and what is wrong). Returns the message.
-std::string expect_refused(const std::filesystem::path& path, const std::vector<std::string>& parts) {
-  try {
-    const MeshFile file = read_mesh_file(path);
-    ADD_FAILURE() << path << " was read (" << triangle_count(file) << " triangles)";
-    return {};
-  } catch (const InputError& error) {
-    const std::string message = error.what();
-    EXPECT_TRUE(message.starts_with(path.string() + ":")) << message;
-    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
-    for (const std::string& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
-    return message;
   }
 }
 

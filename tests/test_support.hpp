@@ -143,6 +143,105 @@ inline std::shared_ptr<MeshFile> triangle_soup(TestRandom& rng, int count, doubl
   return file;
 }
 
+// A scene made in code, with nothing in it yet: the camera at `from`, looking at `at` and focused there.
+inline SceneDescription generated_scene(const Vec3d& from, const Vec3d& at = {0, 0, 0}) {
+  SceneDescription scene;
+  scene.source = "generated";
+  scene.camera.look_from = from;
+  scene.camera.look_at = at;
+  scene.camera.focus_distance = length(from - at);
+  return scene;
+}
+
+// --- Checks of model files read by the mesh readers -----------------------------------------------------------
+
+inline u64 triangle_count(const MeshFile& file) {
+  u64 count = 0;
+  for (const TriangleMesh& mesh : file.meshes) count += mesh.triangles.size();
+  return count;
+}
+
+inline u64 vertex_count(const MeshFile& file) {
+  u64 count = 0;
+  for (const TriangleMesh& mesh : file.meshes) count += mesh.positions.size();
+  return count;
+}
+
+// The bounds, in the file's space, of every vertex a triangle uses, at every place the file puts its mesh.
+inline std::pair<Vec3d, Vec3d> placed_bounds(const MeshFile& file) {
+  const double inf = std::numeric_limits<double>::infinity();
+  Vec3d lo{inf, inf, inf}, hi{-inf, -inf, -inf};
+  for (const MeshPlacement& placement : file.placements) {
+    const TriangleMesh& mesh = file.meshes.at(placement.mesh);
+    for (const auto& triangle : mesh.triangles)
+      for (const u32 index : triangle) {
+        const Vec3d q = placement.transform.apply_point(mesh.positions.at(index));
+        lo = vmin(lo, q);
+        hi = vmax(hi, q);
+      }
+  }
+  return {lo, hi};
+}
+
+inline void expect_near(const Vec3d& a, const Vec3d& b, double tolerance) {
+  EXPECT_NEAR(a.x, b.x, tolerance);
+  EXPECT_NEAR(a.y, b.y, tolerance);
+  EXPECT_NEAR(a.z, b.z, tolerance);
+}
+
+inline void expect_placed_bounds(const MeshFile& file, const Vec3d& lo, const Vec3d& hi, double tolerance) {
+  const auto [got_lo, got_hi] = placed_bounds(file);
+  expect_near(got_lo, lo, tolerance);
+  expect_near(got_hi, hi, tolerance);
+}
+
+// What every file read must satisfy: each index names a vertex of its mesh, per-vertex arrays have one entry per
+// position, positions are finite and normals of unit length, and materials, textures and placements are valid.
+inline void expect_consistent(const MeshFile& file, double normal_tolerance = 1e-9) {
+  ASSERT_FALSE(file.materials.empty());
+  for (const TriangleMesh& mesh : file.meshes) {
+    EXPECT_TRUE(mesh.normals.empty() || mesh.normals.size() == mesh.positions.size()) << mesh.name;
+    EXPECT_TRUE(mesh.uvs.empty() || mesh.uvs.size() == mesh.positions.size()) << mesh.name;
+    EXPECT_TRUE(mesh.materials.empty() || mesh.materials.size() == mesh.triangles.size()) << mesh.name;
+    for (const auto& triangle : mesh.triangles)
+      for (const u32 index : triangle) ASSERT_LT(index, mesh.positions.size()) << mesh.name;
+    for (const u32 material : mesh.materials) ASSERT_LT(material, file.materials.size()) << mesh.name;
+    for (const Vec3d& p : mesh.positions) ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) << mesh.name;
+    for (const Vec3d& n : mesh.normals) ASSERT_NEAR(length(n), 1.0, normal_tolerance) << mesh.name;
+  }
+  for (const MeshPlacement& placement : file.placements) ASSERT_LT(placement.mesh, file.meshes.size());
+  for (const MeshMaterial& material : file.materials) {
+    EXPECT_LT(material.base_color_texture, static_cast<i32>(file.textures.size()));
+    EXPECT_LT(material.emission_texture, static_cast<i32>(file.textures.size()));
+  }
+}
+
+inline bool has_warning(const MeshFile& file, const std::string& part) {
+  return std::any_of(file.warnings.begin(), file.warnings.end(), [&](const std::string& w) { return w.find(part) != std::string::npos; });
+}
+
+inline std::string all_warnings(const MeshFile& file) {
+  std::string text;
+  for (const std::string& warning : file.warnings) text += warning + "\n";
+  return text;
+}
+
+// Reading `path` must throw one InputError: one line, starting with the file's name, holding each of `parts` (the
+// place in the file and what is wrong). Returns the message.
+inline std::string expect_refused(const std::filesystem::path& path, const std::vector<std::string>& parts) {
+  try {
+    const MeshFile file = read_mesh_file(path);
+    ADD_FAILURE() << path << " was read (" << triangle_count(file) << " triangles)";
+    return {};
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_TRUE(message.starts_with(path.string() + ":")) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+    for (const std::string& part : parts) EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
+    return message;
+  }
+}
+
 // Places a model file of the scene by scale, then rotation (degrees about x, y, z), then translation.
 inline void place_mesh(SceneDescription& scene, u32 file, const Vec3d& scale, const Vec3d& degrees, const Vec3d& at, u32 material = kMeshMaterials) {
   SceneObject o;

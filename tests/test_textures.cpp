@@ -68,7 +68,7 @@ TYPED_TEST(CheckerTextures, CellsAreHalfPeriodsWide) {
 struct SmallImage {
   std::vector<u8> texels;
   std::vector<float> decode = srgb_decode_table();
-  ImageTexture<float> texture{3, 2, 1, 1.0f};
+  ImageTexture<float> texture{3, 2, 1, 1.0f, Color<float>::splat(1.0f)};
   SmallImage() {
     texels.assign(3, 255);  // texel 0 belongs to another image
     for (u8 i = 0; i < 18; ++i) texels.push_back(static_cast<u8>(10 * i + 3));

@@ -962,12 +962,7 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
   for (u32 i = 0; i < scene.primitives.size(); ++i) {
     if (const auto* instance = std::get_if<MeshInstance<T>>(&scene.primitives[i].shape)) {
       // Every triangle of the mesh, in its space.
-      Ray<T> local = ray;
-      if (instance->transform != kNoTransform) {
-        const AffineRows<T>& to_mesh = scene.instance_transforms[instance->transform].to_mesh;
-        local.origin = to_mesh.point(ray.origin);
-        local.direction = to_mesh.vector(ray.direction);
-      }
+      const Ray<T> local = instance_ray(view.meshes, *instance, ray);
       const MeshRecord& mesh = scene.meshes[instance->mesh];
       MeshLeaf<T> leaf{view.meshes, mesh.first_vertex, local, hit};
       if (leaf(mesh.first_triangle, mesh.triangle_count, closest)) {
@@ -981,7 +976,6 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
       closest = candidate.t;
       hit = candidate;
       hit.primitive = i;
-      hit.triangle = 0;
       found = true;
     }
   }

@@ -390,16 +390,23 @@ struct MeshLeaf {
   }
 };
 
-// A mesh instance: the ray taken into the mesh's space (its direction is not renormalised, so distances along it
-// stay those of the world ray) and the mesh's own tree walked.
+// A world ray taken into an instance's mesh space. Its direction is not renormalised, so distances along it stay
+// those of the world ray and hits on different instances compare by t.
 template <class T>
-PT_HD inline bool intersect_instance(const MeshData<T>& meshes, const MeshInstance<T>& instance, const Ray<T>& ray, T& closest, Hit<T>& hit) {
+PT_HD inline Ray<T> instance_ray(const MeshData<T>& meshes, const MeshInstance<T>& instance, const Ray<T>& ray) {
   Ray<T> local = ray;
   if (instance.transform != kNoTransform) {
     const AffineRows<T>& to_mesh = meshes.transforms[instance.transform].to_mesh;
     local.origin = to_mesh.point(ray.origin);
     local.direction = to_mesh.vector(ray.direction);
   }
+  return local;
+}
+
+// A mesh instance: the ray taken into the mesh's space and the mesh's own tree walked.
+template <class T>
+PT_HD inline bool intersect_instance(const MeshData<T>& meshes, const MeshInstance<T>& instance, const Ray<T>& ray, T& closest, Hit<T>& hit) {
+  const Ray<T> local = instance_ray(meshes, instance, ray);
   const MeshRecord& mesh = meshes.meshes[instance.mesh];
   MeshLeaf<T> leaf{meshes, mesh.first_vertex, local, hit};
   return walk_tree(meshes.nodes, meshes.wide_nodes, mesh.root, mesh.wide_root, local, closest, leaf);
@@ -428,7 +435,6 @@ struct SceneLeaf {
         closest = candidate.t;
         hit = candidate;
         hit.primitive = i;
-        hit.triangle = 0;
         found = true;
       }
     }

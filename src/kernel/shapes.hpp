@@ -277,6 +277,7 @@ PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitiv
 template <class T>
 PT_HD inline bool intersect_primitive(const Primitive<T>& primitive, u32 index, const IntersectContext<T>& context,
                                       const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  hit.triangle = 0;  // only a mesh's hits name a triangle
   if (const auto* medium = std::get_if<ConstantMedium<T>>(&primitive.shape))
     return intersect_medium(*medium, index, context, ray, t_min, t_max, hit);
   return intersect_geometry(primitive.shape, ray, t_min, t_max, hit);
