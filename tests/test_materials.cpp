@@ -303,10 +303,10 @@ TEST(IsotropicScattering, IsUniformOnTheSphere) {
 }
 
 TEST(LambertianUnderWhiteFurnace, ReflectsItsAlbedo) {
-  // A convex lambertian sphere of albedo a under a sky of radiance 1 shows exactly a; with Russian roulette from the
-  // first bounce (q = 0.75, survivors weighted 1/q) it shows a on average.
+  // A convex lambertian sphere of albedo a under a sky of radiance 1 shows exactly a when only scattering finds the
+  // sky; with Russian roulette from the first bounce (q = 0.75, survivors weighted 1/q) it shows a on average.
   auto scene_text = [](int roulette) {
-    return R"({"render": {"width": 24, "height": 24, "samples_per_pixel": 64, "max_depth": 100, "russian_roulette_depth": )" +
+    return R"({"render": {"width": 24, "height": 24, "samples_per_pixel": 64, "max_depth": 100, "light_sampling": "none", "russian_roulette_depth": )" +
            std::to_string(roulette) + R"(},
                "camera": {"look_from": [0, 0, 3], "look_at": [0, 0, 0], "vertical_fov": 30},
                "background": {"type": "constant", "color": [1, 1, 1]},

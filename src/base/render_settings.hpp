@@ -6,6 +6,10 @@
 
 namespace pt {
 
+// How paths find lights: next-event estimation (a shadow ray towards a light chosen at every diffuse bounce,
+// combined with the scattered direction by multiple importance sampling), or only by scattering into them.
+enum class LightSampling : u32 { kNone = 0, kNextEvent = 1 };
+
 struct RenderSettings {
   u32 width = 800;
   u32 height = 480;
@@ -13,6 +17,7 @@ struct RenderSettings {
   u32 max_depth = 50;
   u32 seed = 1;
   u32 roulette_depth = 0;
+  LightSampling light_sampling = LightSampling::kNextEvent;
 };
 
 }  // namespace pt

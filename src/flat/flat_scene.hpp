@@ -32,6 +32,11 @@ struct FlatScene {
   std::vector<float> srgb_decode;  // the linear value of each byte
   std::vector<Vec3<T>> perlin_gradients;
   std::vector<u32> perlin_permutations;
+  // Lights for next-event estimation (kernel/scene_view.hpp, LightData), built by build_light_table.
+  std::vector<LightEntry<T>> light_entries;
+  std::vector<u32> primitive_light;
+  std::vector<T> light_triangle_cdf;
+  u32 background_light = kNoLight;
   Camera<T> camera;
   Background<T> background;
   RenderParams<T> params;
@@ -68,6 +73,9 @@ SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
                                      place(scene.perlin_permutations, "copying the noise tables")},
                       scene.camera,
                       scene.background,
+                      LightData<T>{place(scene.light_entries, "copying the lights"), place(scene.primitive_light, "copying the lights"),
+                                   place(scene.light_triangle_cdf, "copying the lights"), static_cast<u32>(scene.light_entries.size()),
+                                   scene.background_light},
                       scene.params};
 }
 
@@ -92,6 +100,12 @@ struct SceneDescription;  // scene/scene.hpp
 
 template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale = 0);
+
+// The lights of a flat scene whose primitives, materials, meshes and background are in place: every primitive that
+// emits (an emitting material with some power), and the background where it is not black, in an alias table that
+// picks each by its share of the emitted power (flat/light_table.cpp).
+template <class T>
+void build_light_table(FlatScene<T>& scene);
 
 // The brute-force closest hit (every primitive tested): the reference the BVH is checked against.
 template <class T>

@@ -932,8 +932,10 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   for (u32 index : bvh.order) flat.primitives.push_back(converted[index]);
   flat.texels = scene.texels;
   flat.srgb_decode = srgb_decode_table();
-  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth};
+  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth,
+                                settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u};
   flat.samples_per_pixel = settings.samples_per_pixel;
+  build_light_table(flat);
   return flat;
 }
 

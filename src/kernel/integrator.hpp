@@ -2,7 +2,7 @@
 // accumulation of a range of samples into a film pixel. Every backend calls these.
 #pragma once
 
-#include "kernel/scene_view.hpp"
+#include "kernel/lights.hpp"
 
 namespace pt {
 
@@ -12,12 +12,28 @@ struct SampleResult {
   u32 rays;  // closest-hit queries made by this sample
 };
 
-// Everything a path carries from one bounce to the next. `bounce` counts the closest-hit queries made so far.
+// Everything a path carries from one bounce to the next. `bounce` counts the closest-hit queries made so far (its
+// shadow rays apart); `scatter_pdf` is the density of the ray's direction, 0 for a camera ray or a specular choice.
 template <class T>
 struct PathState {
   Ray<T> ray;
   Color<T> radiance;
   Color<T> throughput;
+  u32 bounce;
+  u32 shadow_rays;
+  T scatter_pdf;
+};
+
+// A shadow ray of next-event estimation, waiting to be traced: what it adds when it reaches the light of `entry`
+// (for a mesh, its `triangle`) unblocked is weight x emitted radiance x the MIS weight over the light's density.
+// `bounce` keys the draws of the media it crosses (with kShadowBounceBit set).
+template <class T>
+struct ShadowRay {
+  Ray<T> ray;
+  Color<T> weight;  // the path's throughput times the material's scattering towards the light
+  T scatter_pdf;    // the density with which the material would have scattered that way
+  u32 entry;        // kNoLight: none to trace
+  u32 triangle;
   u32 bounce;
 };
 
@@ -29,32 +45,94 @@ PT_HD inline SampleRandom path_random(const RenderParams<T>& params, u32 pixel, 
 // A new path: the camera ray of one sample of pixel (x, y).
 template <class T>
 PT_HD inline PathState<T> start_path(const SceneView<T>& scene, u32 x, u32 y, const SampleRandom& random) {
-  return PathState<T>{camera_ray(scene.camera, scene.params.width, scene.params.height, x, y, random), Color<T>{}, Color<T>::splat(T(1)), 0};
+  return PathState<T>{camera_ray(scene.camera, scene.params.width, scene.params.height, x, y, random), Color<T>{}, Color<T>::splat(T(1)), 0, 0, T(0)};
+}
+
+// The weight of light that a scattered ray found: the power heuristic against the density `light_density` with which
+// light sampling could have found it too, or 1 where the path could not have (a camera ray, a specular choice).
+template <class T>
+PT_HD inline T found_light_weight(const PathState<T>& path, T light_density) {
+  return path.scatter_pdf > T(0) ? mis_weight(path.scatter_pdf, light_density) : T(1);
 }
 
 // The path left the scene: it gathers the background, and ends.
 template <class T>
 PT_HD inline void path_escaped(const SceneView<T>& scene, PathState<T>& path) {
-  path.radiance += path.throughput * background_radiance(scene.background, path.ray.direction);
+  T weight = T(1);
+  if (scene.params.next_event && scene.lights.background != kNoLight)
+    weight = found_light_weight(path, scene.lights.entries[scene.lights.background].pmf * background_pdf(scene.background, path.ray.direction));
+  path.radiance += path.throughput * background_radiance(scene.background, path.ray.direction) * weight;
   ++path.bounce;
 }
 
-// The path hit something: it gathers the emission there and scatters. Returns whether it goes on (with its new
-// ray); either way the bounce is counted.
+// Next-event estimation at a scattering point: a light picked, a direction towards it, and the shadow ray that will
+// tell whether it is seen (traced by the caller: shadow_contribution). Leaves shadow.entry at kNoLight where there is
+// nothing to trace.
 template <class T>
-PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random) {
+PT_HD inline void sample_next_event(const SceneView<T>& scene, PathState<T>& path, const Material<T>& material, const SurfacePoint<T>& at,
+                                    const BounceRandom& random, ShadowRay<T>& shadow) {
+  LightSample<T> light;
+  if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
+  const ScatterValue<T> value = material_evaluate(material, at, light.direction, scene.textures, scene.texture_data);
+  if (!(value.pdf > T(0))) return;
+  shadow.ray = spawn_ray(at, light.direction, path.ray.time);
+  shadow.weight = path.throughput * value.value;
+  shadow.scatter_pdf = value.pdf;
+  shadow.entry = light.entry;
+  shadow.triangle = light.triangle;
+  shadow.bounce = random.bounce | kShadowBounceBit;
+  ++path.shadow_rays;
+}
+
+// What a shadow ray adds to its path's radiance: the light's emission where the ray meets the light it aimed at
+// before anything else (a medium it crosses may stop it, by its free-flight draw: transmittance on average), weighted
+// by MIS against scattering.
+template <class T>
+PT_HD inline Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
+  Hit<T> hit{};
+  const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, shadow.bounce}, hit);
+  const LightEntry<T>& light = scene.lights.entries[shadow.entry];
+  if (light.primitive == kNoLight) {
+    if (blocked) return Color<T>{};
+    const T light_density = light.pmf * background_pdf(scene.background, shadow.ray.direction);
+    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * mis_weight_over_pdf(light_density, shadow.scatter_pdf);
+  }
+  if (!blocked || hit.primitive != light.primitive || hit.triangle != shadow.triangle) return Color<T>{};
+  const Primitive<T>& primitive = scene.primitives[hit.primitive];
+  const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
+  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));
+  const T light_density = light_pdf(scene, shadow.entry, shadow.ray, hit, at);
+  if (!(light_density > T(0))) return Color<T>{};
+  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * mis_weight_over_pdf(light_density, shadow.scatter_pdf);
+}
+
+// The path hit something: it gathers the emission there, picks a light to sample (next-event estimation: the shadow
+// ray is left for the caller to trace), and scatters. Returns whether it goes on (with its new ray); either way the
+// bounce is counted.
+template <class T>
+PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random, ShadowRay<T>& shadow) {
+  shadow.entry = kNoLight;
   const u32 bounce = path.bounce++;
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const bool needs_uv = material_needs_uv(material, scene.textures);
   const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv);
-  // Emission counts with the throughput of the path that reached it (the seed dropped this factor).
-  path.radiance += path.throughput * material_emitted(material, at, scene.textures, scene.texture_data);
-  Scatter<T> scatter;
+  // Emission counts with the throughput of the path that reached it (the seed dropped this factor), weighted against
+  // light sampling where that could have found it.
+  T weight = T(1);
+  if (scene.params.next_event && path.scatter_pdf > T(0)) {
+    const u32 entry = scene.lights.primitive_light[hit.primitive];
+    if (entry != kNoLight) weight = found_light_weight(path, light_pdf(scene, entry, path.ray, hit, at));
+  }
+  path.radiance += path.throughput * material_emitted(material, at, scene.textures, scene.texture_data) * weight;
   const BounceRandom bounce_random{&random, bounce};
+  if (scene.params.next_event && scene.lights.count > 0 && path.bounce < scene.params.max_depth && material_samples_lights(material))
+    sample_next_event(scene, path, material, at, bounce_random, shadow);
+  Scatter<T> scatter;
   if (!material_scatter(material, path.ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) return false;
   path.throughput *= scatter.attenuation;
   path.ray = scatter.ray;
+  path.scatter_pdf = scatter.pdf;
   const RenderParams<T>& params = scene.params;
   if (params.roulette_depth > 0 && bounce + 1 >= params.roulette_depth) {
     // Continue with probability q and divide by q: unbiased, and dark paths stop early.
@@ -82,9 +160,12 @@ PT_HD inline SampleResult<T> trace_sample(const SceneView<T>& scene, u32 x, u32 
       path_escaped(scene, path);
       break;
     }
-    if (!path_shade(scene, path, hit, random)) break;
+    ShadowRay<T> shadow;
+    const bool goes_on = path_shade(scene, path, hit, random, shadow);
+    if (shadow.entry != kNoLight) path.radiance += shadow_contribution(scene, shadow, random);
+    if (!goes_on) break;
   }
-  return SampleResult<T>{path.radiance, path.bounce};
+  return SampleResult<T>{path.radiance, path.bounce + path.shadow_rays};
 }
 
 // One pixel of the film: the sum of its finite samples (in double, so long renders lose no precision),

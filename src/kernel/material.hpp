@@ -31,10 +31,22 @@ struct SurfacePoint {
   T offset;
 };
 
+// A scattered ray and its weight (the BSDF times the cosine over the density). `pdf` is the density of its
+// direction per unit solid angle, or 0 where the choice was specular (a mirror, glass, a fuzzy metal: directions
+// light sampling cannot find), so that the emission the ray meets counts in full.
 template <class T>
 struct Scatter {
   Color<T> attenuation;
   Ray<T> ray;
+  T pdf;
+};
+
+// The BSDF times the cosine (the phase function in a medium) for given directions, and the density with which
+// material_scatter would have chosen `wi`: what next-event estimation needs of a material.
+template <class T>
+struct ScatterValue {
+  Color<T> value;
+  T pdf;
 };
 
 // A ray leaving a surface point: it starts at the point moved by its offset to the side the direction goes to, where
@@ -83,7 +95,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       Vec3<T> direction = at.normal + random_direction();
       const T len2 = length_squared(direction);
       direction = len2 > constant<T>(1e-12) ? direction / sqrt(len2) : at.normal;
-      out = {albedo(m.texture), spawn_ray(at, direction, in.time)};
+      out = {albedo(m.texture), spawn_ray(at, direction, in.time), max(dot(direction, at.normal), T(0)) / pi<T>()};
       return true;
     }
     PT_HD bool operator()(const Metal<T>& m) const {
@@ -91,7 +103,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       const T len2 = length_squared(direction);
       if (!(len2 > T(0))) return false;
       direction = direction / sqrt(len2);
-      out = {m.albedo, spawn_ray(at, direction, in.time)};
+      out = {m.albedo, spawn_ray(at, direction, in.time), T(0)};
       return dot(direction, at.normal) > T(0);
     }
     PT_HD bool operator()(const Dielectric<T>& m) const {
@@ -103,16 +115,41 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
         direction = reflect(in.direction, at.normal);
       else
         direction = refract(in.direction, at.normal, eta, cos_i);
-      out = {m.tint, spawn_ray(at, normalize(direction), in.time)};
+      out = {m.tint, spawn_ray(at, normalize(direction), in.time), T(0)};
       return true;
     }
     PT_HD bool operator()(const DiffuseLight<T>&) const { return false; }
     PT_HD bool operator()(const Isotropic<T>& m) const {
-      out = {albedo(m.texture), spawn_ray(at, random_direction(), in.time)};
+      out = {albedo(m.texture), spawn_ray(at, random_direction(), in.time), T(1) / (constant<T>(4) * pi<T>())};
       return true;
     }
   };
   return visit(Sample{in, at, textures, data, random, out}, material);
+}
+
+// Whether the material scatters with a density light sampling can meet (diffuse surfaces, media), so that a shadow
+// ray towards a light is worth tracing from it.
+template <class T>
+PT_HD inline bool material_samples_lights(const Material<T>& material) {
+  return std::holds_alternative<Lambertian<T>>(material) || std::holds_alternative<Isotropic<T>>(material);
+}
+
+// The scattering towards `wi` (unit, leaving the point) of a material for which material_samples_lights holds, and
+// the density material_scatter gives that direction; zero for the others.
+template <class T>
+PT_HD inline ScatterValue<T> material_evaluate(const Material<T>& material, const SurfacePoint<T>& at, const Vec3<T>& wi,
+                                               const Texture<T>* textures, const TextureData<T>& data) {
+  if (const auto* m = std::get_if<Lambertian<T>>(&material)) {
+    const T cosine = dot(wi, at.normal);
+    if (!(cosine > T(0))) return ScatterValue<T>{Color<T>{}, T(0)};
+    const T pdf = cosine / pi<T>();
+    return ScatterValue<T>{texture_value(textures[m->texture], TexturePoint<T>{at.u, at.v, at.p}, data) * pdf, pdf};
+  }
+  if (const auto* m = std::get_if<Isotropic<T>>(&material)) {
+    const T pdf = T(1) / (constant<T>(4) * pi<T>());
+    return ScatterValue<T>{texture_value(textures[m->texture], TexturePoint<T>{at.u, at.v, at.p}, data) * pdf, pdf};
+  }
+  return ScatterValue<T>{Color<T>{}, T(0)};
 }
 
 // Whether the texture reads the texture coordinates (u, v); the others depend on the point only.

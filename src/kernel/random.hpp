@@ -26,6 +26,10 @@ enum RandomDimension : u32 {
   kDimScatter = 8,  // pair: scattered direction
   kDimScatterChoice = 10,  // reflect or refract
   kDimRoulette = 12,
+  kDimLightChoice = 20,    // next-event estimation: the light's index (its bits) ...
+  kDimLightAlias = 21,     // ... the alias table's choice between the entry and its alias
+  kDimLightPoint = 22,     // pair: the point on the light (or the direction towards it)
+  kDimLightTriangle = 24,  // the triangle of an emitting mesh
   // A medium draws its free-flight distance from dimension kDimMediumBase + its primitive index, so the draw
   // does not depend on the order in which the acceleration structure visits primitives.
   kDimMediumBase = 64,

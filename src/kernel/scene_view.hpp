@@ -18,6 +18,31 @@ struct RenderParams {
   u32 max_depth;
   u32 seed;
   u32 roulette_depth;  // 0: no Russian roulette
+  u32 next_event;      // 1: next-event estimation with multiple importance sampling (kernel/lights.hpp); 0: none
+};
+
+// ---- Lights, for next-event estimation ----
+inline constexpr u32 kNoLight = 0xffffffffu;
+
+// One light of the alias table that picks lights by power: entry i is taken with probability threshold, else its
+// alias. `pmf` is the probability that the light is picked in all. The background is the entry whose primitive is
+// kNoLight. An emitting mesh instance picks a triangle by the distribution that starts at `first_cdf`.
+template <class T>
+struct LightEntry {
+  u32 primitive;
+  u32 alias;
+  T threshold;
+  T pmf;
+  u32 first_cdf;  // kNoLight but for mesh instances
+};
+
+template <class T>
+struct LightData {
+  const LightEntry<T>* entries;
+  const u32* primitive_light;  // per primitive: its entry, or kNoLight where it does not emit
+  const T* triangle_cdf;       // per emitting mesh (and material it is given), triangle_count + 1 values from 0 to 1
+  u32 count;
+  u32 background;  // the background's entry, or kNoLight where it is black
 };
 
 template <class T>
@@ -33,6 +58,7 @@ struct SceneView {
   TextureData<T> texture_data;
   Camera<T> camera;
   Background<T> background;
+  LightData<T> lights;
   RenderParams<T> params;
 };
 
@@ -40,6 +66,26 @@ template <class T>
 PT_HD inline Color<T> background_radiance(const Background<T>& background, const Vec3<T>& direction) {
   const T a = constant<T>(0.5) * (direction.y + T(1));
   return lerp(background.horizon, background.zenith, a);
+}
+
+// A direction towards the background, as a light: uniform over the sphere (the gradient varies too little for more).
+template <class T>
+struct BackgroundSample {
+  Vec3<T> direction;
+  Color<T> radiance;
+  T pdf;  // per unit solid angle
+};
+
+template <class T>
+PT_HD inline BackgroundSample<T> background_sample(const Background<T>& background, T u1, T u2) {
+  const Vec3<T> direction = uniform_unit_vector(u1, u2);
+  return BackgroundSample<T>{direction, background_radiance(background, direction), T(1) / (constant<T>(4) * pi<T>())};
+}
+
+// The density background_sample gives `direction`.
+template <class T>
+PT_HD inline T background_pdf(const Background<T>&, const Vec3<T>&) {
+  return T(1) / (constant<T>(4) * pi<T>());
 }
 
 }  // namespace pt

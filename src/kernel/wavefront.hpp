@@ -14,8 +14,8 @@ namespace pt {
 
 inline constexpr u32 kMaterialClasses = static_cast<u32>(std::variant_size_v<Material<float>>);
 
-// Queue counters: the paths that continue, the paths that escaped, and one queue per material class.
-enum WavefrontCounter : u32 { kCounterNextPaths = 0, kCounterEscaped = 1, kCounterFirstMaterial = 2 };
+// Queue counters: the paths that continue, the paths that escaped, the shadow rays, and one queue per material class.
+enum WavefrontCounter : u32 { kCounterNextPaths = 0, kCounterEscaped = 1, kCounterShadow = 2, kCounterFirstMaterial = 3 };
 inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClasses;
 
 // The one list of what a path keeps in the pool between stages, as (type, name): each field is an array of the
@@ -27,6 +27,8 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
   FIELD(Color<T>, radiance)        \
   FIELD(Color<T>, throughput)      \
   FIELD(u32, bounce)               \
+  FIELD(u32, shadow_rays)          \
+  FIELD(T, scatter_pdf)            \
   FIELD(u32, item)
 
 // The closest hit found for each slot by the intersect stage, read by the shade stage; listed the same way.
@@ -36,6 +38,20 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
   FIELD(T, b2)                    \
   FIELD(u32, primitive)           \
   FIELD(u32, triangle)
+
+// The shadow rays the shade stage queued, read by the shadow stage; `item` is the path's work item and `slot` where
+// it went on in the next pool (kNoLight: it ended, and its result is final but for this ray's share).
+#define PT_SHADOW_FIELDS(FIELD) \
+  FIELD(Vec3<T>, origin)        \
+  FIELD(Vec3<T>, direction)     \
+  FIELD(T, time)                \
+  FIELD(Color<T>, weight)       \
+  FIELD(T, scatter_pdf)         \
+  FIELD(u32, entry)             \
+  FIELD(u32, triangle)          \
+  FIELD(u32, bounce)            \
+  FIELD(u32, item)              \
+  FIELD(u32, slot)
 
 #define PT_DECLARE_ARRAY(Type, name) Type* name;
 #define PT_ADD_BYTES(Type, name) +sizeof(Type)
@@ -54,7 +70,9 @@ struct PathPool {
     PT_PATH_POOL_FIELDS(PT_VISIT_ARRAY)
   }
 
-  PT_HD PathState<T> load(u32 i) const { return PathState<T>{Ray<T>{origin[i], direction[i], time[i]}, radiance[i], throughput[i], bounce[i]}; }
+  PT_HD PathState<T> load(u32 i) const {
+    return PathState<T>{Ray<T>{origin[i], direction[i], time[i]}, radiance[i], throughput[i], bounce[i], shadow_rays[i], scatter_pdf[i]};
+  }
   PT_HD void store(u32 i, const PathState<T>& path, u32 work_item) const {
     origin[i] = path.ray.origin;
     direction[i] = path.ray.direction;
@@ -62,7 +80,38 @@ struct PathPool {
     radiance[i] = path.radiance;
     throughput[i] = path.throughput;
     bounce[i] = path.bounce;
+    shadow_rays[i] = path.shadow_rays;
+    scatter_pdf[i] = path.scatter_pdf;
     item[i] = work_item;
+  }
+};
+
+// The queued shadow rays, structure-of-arrays.
+template <class T>
+struct ShadowQueue {
+  PT_SHADOW_FIELDS(PT_DECLARE_ARRAY)
+
+  static constexpr u32 kBytesPerPath = 0 PT_SHADOW_FIELDS(PT_ADD_BYTES);
+
+  template <class Visit>
+  void for_each_array(Visit&& visit) {
+    PT_SHADOW_FIELDS(PT_VISIT_ARRAY)
+  }
+
+  PT_HD ShadowRay<T> load(u32 i) const {
+    return ShadowRay<T>{Ray<T>{origin[i], direction[i], time[i]}, weight[i], scatter_pdf[i], entry[i], triangle[i], bounce[i]};
+  }
+  PT_HD void store(u32 i, const ShadowRay<T>& shadow, u32 work_item, u32 next_slot) const {
+    origin[i] = shadow.ray.origin;
+    direction[i] = shadow.ray.direction;
+    time[i] = shadow.ray.time;
+    weight[i] = shadow.weight;
+    scatter_pdf[i] = shadow.scatter_pdf;
+    entry[i] = shadow.entry;
+    triangle[i] = shadow.triangle;
+    bounce[i] = shadow.bounce;
+    item[i] = work_item;
+    slot[i] = next_slot;
   }
 };
 
@@ -93,6 +142,7 @@ template <class T>
 struct WavefrontView {
   PathPool<T> current, next;
   PathHits<T> hits;
+  ShadowQueue<T> shadows;
   u32* escaped;
   // The material queues one after another, pool_capacity entries each. One pointer, not an array of them: a kernel
   // that picks an array element by a run-time index makes SYCL compilers keep the whole kernel object in local
@@ -105,9 +155,10 @@ struct WavefrontView {
   u32 first_sample;
   u32 pixels;
 
-  // Bytes of one path in flight: two pools (current and next), its hit, and a slot in the escaped queue and in
-  // every material queue.
-  static constexpr u32 kBytesPerPath = 2 * PathPool<T>::kBytesPerPath + PathHits<T>::kBytesPerPath + (1 + kMaterialClasses) * sizeof(u32);
+  // Bytes of one path in flight: two pools (current and next), its hit, its shadow ray, and a slot in the escaped
+  // queue and in every material queue.
+  static constexpr u32 kBytesPerPath =
+      2 * PathPool<T>::kBytesPerPath + PathHits<T>::kBytesPerPath + ShadowQueue<T>::kBytesPerPath + (1 + kMaterialClasses) * sizeof(u32);
 
   // visit(array, entries) for every array, sized for `pool_capacity` paths and `work_items` results (host side:
   // allocation).
@@ -117,6 +168,7 @@ struct WavefrontView {
     current.for_each_array(sized);
     next.for_each_array(sized);
     hits.for_each_array(sized);
+    shadows.for_each_array(sized);
     sized(escaped);
     this->pool_capacity = pool_capacity;
     visit(material_queues, static_cast<std::size_t>(pool_capacity) * kMaterialClasses);
@@ -146,7 +198,7 @@ PT_HD inline SampleRandom wavefront_random(const SceneView<T>& scene, const Wave
 
 template <class T>
 PT_HD inline void wavefront_finish(const WavefrontView<T>& w, const PathState<T>& path, u32 item) {
-  w.results[item] = SampleResult<T>{path.radiance, path.bounce};
+  w.results[item] = SampleResult<T>{path.radiance, path.bounce + path.shadow_rays};
 }
 
 // Stage 1: a new camera path for work item `item`, in slot `slot` of the current pool.
@@ -182,7 +234,8 @@ PT_HD inline void wavefront_escaped(const SceneView<T>& scene, const WavefrontVi
   wavefront_finish(w, path, w.current.item[slot]);
 }
 
-// Stage 4, once per material class: shade and scatter; paths that go on are compacted into the next pool.
+// Stage 4, once per material class: shade and scatter; paths that go on are compacted into the next pool, and
+// shadow rays queued with where their share goes.
 template <class T>
 PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView<T>& w, u32 material_class, u32 queue_index) {
   const u32 slot = w.material_queue(material_class)[queue_index];
@@ -190,13 +243,29 @@ PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView
   const u32 item = w.current.item[slot];
   const SampleRandom random = wavefront_random(scene, w, item);
   const Hit<T> hit = w.hits.load(slot);
-  if (path_shade(scene, path, hit, random) && path.bounce < scene.params.max_depth)
-    w.next.store(queue_push(w.counters + kCounterNextPaths), path, item);
-  else
+  ShadowRay<T> shadow;
+  u32 next_slot = kNoLight;
+  if (path_shade(scene, path, hit, random, shadow) && path.bounce < scene.params.max_depth) {
+    next_slot = queue_push(w.counters + kCounterNextPaths);
+    w.next.store(next_slot, path, item);
+  } else {
     wavefront_finish(w, path, item);
+  }
+  if (shadow.entry != kNoLight) w.shadows.store(queue_push(w.counters + kCounterShadow), shadow, item, next_slot);
 }
 
-// Stage 5, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does.
+// Stage 5: shadow rays traced; what each brings is added to its path's radiance, exactly where the megakernel adds
+// it (after the emission of the same bounce, before anything of the next).
+template <class T>
+PT_HD inline void wavefront_shadow(const SceneView<T>& scene, const WavefrontView<T>& w, u32 queue_index) {
+  const u32 item = w.shadows.item[queue_index];
+  const Color<T> contribution = shadow_contribution(scene, w.shadows.load(queue_index), wavefront_random(scene, w, item));
+  const u32 slot = w.shadows.slot[queue_index];
+  if (slot != kNoLight) w.next.radiance[slot] += contribution;
+  else w.results[item].radiance += contribution;
+}
+
+// Stage 6, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does.
 template <class T>
 PT_HD inline void wavefront_accumulate(const WavefrontView<T>& w, FilmPixel* film, u32 pixel, u32 sample_count) {
   FilmPixel sum = film[pixel];
@@ -233,6 +302,13 @@ struct WavefrontShade {
   WavefrontView<T> view;
   u32 material_class;
   PT_HD void operator()(u32 i) const { wavefront_shade(scene, view, material_class, i); }
+};
+
+template <class T>
+struct WavefrontShadow {
+  SceneView<T> scene;
+  WavefrontView<T> view;
+  PT_HD void operator()(u32 i) const { wavefront_shadow(scene, view, i); }
 };
 
 template <class T>

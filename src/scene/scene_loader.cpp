@@ -256,7 +256,7 @@ class SceneReader {
   }
 
   void read_render(const Node& n) {
-    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "t_min"});
+    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "light_sampling", "t_min"});
     RenderSettings& r = scene_.render;
     if (n.has("width")) r.width = n.child("width").integer(1, kMaxImageSide);
     if (n.has("height")) r.height = n.child("height").integer(1, kMaxImageSide);
@@ -265,6 +265,12 @@ class SceneReader {
     if (n.has("max_depth")) r.max_depth = n.child("max_depth").integer(1, kMaxDepth);
     if (n.has("seed")) r.seed = n.child("seed").integer(0, 0xffffffffu);
     if (n.has("russian_roulette_depth")) r.roulette_depth = n.child("russian_roulette_depth").integer(0, kMaxDepth);
+    if (n.has("light_sampling")) {
+      const Node choice = n.child("light_sampling");
+      const std::string value = choice.string();
+      if (value != "nee" && value != "none") choice.fail(fmt::format("'{}' is not a light sampling: nee or none", value));
+      r.light_sampling = value == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+    }
     // t_min once kept rays from hitting the surface they leave; its fixed distance was wrong at most scales. Rays
     // now start off the surface by the hit point's own rounding error bound (kernel/shapes.hpp, describe_hit).
     if (n.has("t_min"))

@@ -134,7 +134,8 @@ PT_HD void traced_sample(const SceneView<T>& scene, u32 x, u32 y, u32 sample, Tr
       break;
     }
     write(2, hit, visits);
-    if (!path_shade(scene, path, hit, random)) {
+    ShadowRay<T> shadow;  // the probe follows the path's own rays; shadow rays are left untraced
+    if (!path_shade(scene, path, hit, random, shadow)) {
       write(5, hit, visits);
       break;
     }

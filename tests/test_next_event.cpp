@@ -1,0 +1,232 @@
+// Next-event estimation with multiple importance sampling changes the noise, never the expected value: against
+// paths that find lights only by scattering, on every shipped scene and on every kind of light; and the light
+// table picks each light by its share of the power.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "scene_cases.hpp"
+#include "test_support.hpp"
+#if PT_HAVE_CUDA
+#include "backends/cuda/cuda_backend.hpp"
+#endif
+
+namespace pt {
+namespace {
+
+using test::case_settings;
+using test::expect_blocks_agree;
+using test::load_case_scene;
+using test::scene_case;
+using test::SceneCase;
+using test::statistics_on;
+
+RenderSettings with_light_sampling(RenderSettings settings, LightSampling light_sampling) {
+  settings.light_sampling = light_sampling;
+  return settings;
+}
+
+// Both renders in float on one backend, with independent seeds; `factor` multiplies the samples of the scene's case.
+void expect_next_event_matches_naive(const std::string& name, const std::string& backend, u32 factor) {
+  const SceneDescription scene = load_case_scene(name);
+  const SceneCase& c = scene_case(name);
+  const u32 samples = (c.nee_samples ? c.nee_samples : c.samples) * factor;
+  const RenderSettings nee = with_light_sampling(case_settings(scene, c, samples, 707), LightSampling::kNextEvent);
+  const RenderSettings naive = with_light_sampling(case_settings(scene, c, samples, 808), LightSampling::kNone);
+  const test::PixelStatistics a = statistics_on<float>(backend, flatten_scene<float>(scene, nee));
+  const test::PixelStatistics b = statistics_on<float>(backend, flatten_scene<float>(scene, naive));
+  EXPECT_EQ(a.non_finite, 0u);
+  expect_blocks_agree(a, b, "nee", "naive", name + " (" + backend + ")");
+}
+
+class NextEventMatchesNaive : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(NextEventMatchesNaive, BlockMeansAgreeWithinNoise) { expect_next_event_matches_naive(GetParam(), "cpu", 1); }
+
+// At 16 times the samples, where a bias of a fraction of a percent would show: on a GPU.
+TEST_P(NextEventMatchesNaive, CudaBlockMeansAgreeAtHighSampleCounts) {
+#if !PT_HAVE_CUDA
+  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
+#else
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  expect_next_event_matches_naive(GetParam(), "cuda", 16);
+#endif
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, NextEventMatchesNaive,
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "precision"),
+                         test::scene_test_name);
+
+// ---- Every kind of light ----
+
+// A floor lit by one light of each kind the sampler treats apart: a quad, a triangle, a sphere seen from outside
+// (sampled by its cone), a moving sphere, an emitting mesh placed twice (once mirrored and stretched: the triangle's
+// share and its area in the world differ from the mesh's), fog that shadow rays cross, and around everything an
+// emitting sphere seen from inside (sampled by area) that stands for a sky.
+SceneDescription every_kind_of_light() {
+  SceneDescription scene = test::parse(R"({
+    "render": {"width": 48, "height": 32, "samples_per_pixel": 1, "max_depth": 6},
+    "camera": {"look_from": [0, 6, 14], "look_at": [0, 1, 0], "vertical_fov": 45},
+    "background": {"type": "constant", "color": [0, 0, 0]},
+    "materials": {
+      "floor": {"type": "lambertian", "albedo": [0.7, 0.6, 0.5]},
+      "warm": {"type": "diffuse_light", "emission": [6, 3, 1]},
+      "cool": {"type": "diffuse_light", "emission": [1, 3, 6]},
+      "dim": {"type": "diffuse_light", "emission": [0.2, 0.2, 0.2]}
+    },
+    "objects": [
+      {"type": "quad", "corner": [-8, 0, -8], "u": [16, 0, 0], "v": [0, 0, 16], "material": "floor"},
+      {"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "floor"},
+      {"type": "quad", "corner": [-5, 3, -1], "u": [1, 0, 0], "v": [0, 0, 1.5], "material": "warm"},
+      {"type": "triangle", "vertices": [[3, 2.5, -2], [4.5, 2.5, -2], [3, 4, -1]], "material": "cool"},
+      {"type": "sphere", "center": [-2, 3.5, 2], "radius": 0.4, "material": "warm"},
+      {"type": "moving_sphere", "center0": [2, 2, 2], "center1": [2.5, 2.5, 2], "radius": 0.3, "material": "cool"},
+      {"type": "medium", "boundary": {"type": "box", "min": [-6, 0, -4], "max": [-2, 2, 0]}, "density": 0.3,
+       "material": {"type": "isotropic", "albedo": [0.8, 0.8, 0.8]}},
+      {"type": "sphere", "center": [0, 0, 0], "radius": 40, "material": "dim"}
+    ]})");
+  test::TestRandom rng(11);
+  std::shared_ptr<MeshFile> soup = test::triangle_soup(rng, 40, 0.6);
+  soup->materials[0].emission = {2, 5, 2};
+  const u32 file = add_mesh_file(scene, soup, "/objects");
+  test::place_mesh(scene, file, {0.5, 0.5, 0.5}, {0, 0, 0}, {-1, 4, -3});
+  test::place_mesh(scene, file, {-0.4, 0.9, 0.6}, {20, 40, 0}, {3, 4, 1});
+  return scene;
+}
+
+TEST(EveryKindOfLight, NextEventMatchesNaiveWithinNoise) {
+  const SceneDescription scene = every_kind_of_light();
+  RenderSettings settings = scene.render;
+  settings.samples_per_pixel = 2048 / test::kSampleDivisor;
+  const FlatScene<double> nee = flatten_scene<double>(scene, with_light_sampling(settings, LightSampling::kNextEvent));
+  // Every emitter is in the table: four shapes, two mesh instances and the enclosing sphere.
+  ASSERT_EQ(nee.light_entries.size(), 7u);
+  settings.seed = 2;
+  const FlatScene<double> naive = flatten_scene<double>(scene, with_light_sampling(settings, LightSampling::kNone));
+  const test::PixelStatistics a = test::sample_statistics(nee, settings.samples_per_pixel);
+  const test::PixelStatistics b = test::sample_statistics(naive, settings.samples_per_pixel);
+  EXPECT_EQ(a.non_finite, 0u);
+  expect_blocks_agree(a, b, "nee", "naive", "every kind of light");
+}
+
+// The reason for it all: a floor under a small light, lit directly, is nearly free of noise with light sampling and
+// speckled without (a scattered ray finds the light one time in 40). 256 samples a pixel give naive paths a few
+// hits each, so its variance estimate is trustworthy.
+TEST(NextEventEstimation, LeavesLessNoiseUnderASmallLight) {
+  const SceneDescription scene = test::parse(R"({
+    "render": {"width": 16, "height": 16, "samples_per_pixel": 256, "max_depth": 2},
+    "camera": {"look_from": [0, 6, 0.01], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "background": {"type": "constant", "color": [0, 0, 0]},
+    "objects": [
+      {"type": "quad", "corner": [-4, 0, -4], "u": [8, 0, 0], "v": [0, 0, 8], "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}},
+      {"type": "quad", "corner": [-0.5, 3, -0.5], "u": [1, 0, 0], "v": [0, 0, 1], "material": {"type": "diffuse_light", "emission": [10, 10, 10]}}
+    ]})");
+  const test::PixelStatistics a = test::sample_statistics(flatten_scene<double>(scene, with_light_sampling(scene.render, LightSampling::kNextEvent)), 256);
+  const test::PixelStatistics b = test::sample_statistics(flatten_scene<double>(scene, with_light_sampling(scene.render, LightSampling::kNone)), 256);
+  // Over the floor's pixels (the light's own, seen directly, and its edges are alike in both).
+  double variance_a = 0, variance_b = 0;
+  u32 floor_pixels = 0;
+  for (std::size_t i = 0; i < a.variance.size(); ++i)
+    if (a.mean[i] < 1) {
+      variance_a += a.variance[i];
+      variance_b += b.variance[i];
+      ++floor_pixels;
+    }
+  EXPECT_GT(floor_pixels, a.variance.size() / 2);
+  EXPECT_LT(variance_a, 0.05 * variance_b) << variance_a << " against " << variance_b;
+}
+
+// ---- The light table ----
+
+TEST(LightTable, PicksEachLightByItsShareOfPower) {
+  // Three quads: areas 1, 2, 4 with emission 4, 1, 1: powers 4 : 2 : 4. The black background is no light.
+  const SceneDescription scene = test::parse(R"({
+    "camera": {"look_from": [0, 0, 10], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "background": {"type": "constant", "color": [0, 0, 0]},
+    "objects": [
+      {"type": "quad", "corner": [0, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": {"type": "diffuse_light", "emission": [4, 4, 4]}},
+      {"type": "quad", "corner": [2, 0, 0], "u": [2, 0, 0], "v": [0, 1, 0], "material": {"type": "diffuse_light", "emission": [1, 1, 1]}},
+      {"type": "quad", "corner": [5, 0, 0], "u": [2, 0, 0], "v": [0, 2, 0], "material": {"type": "diffuse_light", "emission": [1, 1, 1]}},
+      {"type": "sphere", "center": [0, -5, 0], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}
+    ]})");
+  const FlatScene<double> flat = flatten_scene<double>(scene, scene.render);
+  ASSERT_EQ(flat.light_entries.size(), 3u);
+  EXPECT_EQ(flat.background_light, kNoLight);
+  std::map<double, double> pmf_by_area;  // area -> pmf
+  u32 lights = 0;
+  for (u32 p = 0; p < flat.primitives.size(); ++p) {
+    const u32 entry = flat.primitive_light[p];
+    if (const auto* q = std::get_if<Quad<double>>(&flat.primitives[p].shape)) {
+      ASSERT_NE(entry, kNoLight);
+      EXPECT_EQ(flat.light_entries[entry].primitive, p);
+      pmf_by_area[std::round(1 / dot(q->normal, cross(q->du, q->dv)))] = flat.light_entries[entry].pmf;
+      ++lights;
+    } else {
+      EXPECT_EQ(entry, kNoLight);  // the sphere does not emit
+    }
+  }
+  ASSERT_EQ(lights, 3u);
+  EXPECT_NEAR(pmf_by_area[1], 0.4, 1e-12);
+  EXPECT_NEAR(pmf_by_area[2], 0.2, 1e-12);
+  EXPECT_NEAR(pmf_by_area[4], 0.4, 1e-12);
+  // The alias table draws each entry with its pmf: a chi-square test over a million draws (2 degrees of freedom;
+  // 13.8 is the 0.999 quantile).
+  const SceneView<double> view = flat.view();
+  std::vector<double> counts(3, 0);
+  const u32 draws = 1'000'000;
+  for (u32 i = 0; i < draws; ++i) {
+    const SampleRandom random = SampleRandom::make(9, i, 0);
+    counts[choose_light(view.lights, BounceRandom{&random, 0})] += 1;
+  }
+  double chi2 = 0;
+  for (u32 e = 0; e < 3; ++e) {
+    const double expected = draws * flat.light_entries[e].pmf;
+    chi2 += (counts[e] - expected) * (counts[e] - expected) / expected;
+  }
+  EXPECT_LT(chi2, 13.8);
+}
+
+TEST(LightTable, BackgroundIsALightWhereItShines) {
+  const std::string objects = R"("camera": {"look_from": [0, 0, 10], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}])";
+  const SceneDescription dark = test::parse(R"({"background": {"type": "constant", "color": [0, 0, 0]}, )" + objects + "}");
+  const SceneDescription sky = test::parse(R"({"background": {"type": "sky", "horizon": [1, 1, 1], "zenith": [0.5, 0.7, 1]}, )" + objects + "}");
+  EXPECT_TRUE(flatten_scene<float>(dark, dark.render).light_entries.empty());
+  const FlatScene<float> lit = flatten_scene<float>(sky, sky.render);
+  ASSERT_EQ(lit.light_entries.size(), 1u);
+  EXPECT_EQ(lit.background_light, 0u);
+  EXPECT_EQ(lit.light_entries[0].primitive, kNoLight);
+  EXPECT_EQ(lit.light_entries[0].pmf, 1.0f);
+}
+
+// ---- The integrators agree bitwise without light sampling too ----
+
+TEST(LightSamplingOff, WavefrontEqualsMegakernelBitwise) {
+  const SceneDescription scene = every_kind_of_light();
+  RenderSettings settings = with_light_sampling(scene.render, LightSampling::kNone);
+  settings.samples_per_pixel = 4;
+  const FlatScene<float> flat = flatten_scene<float>(scene, settings);
+  const RenderResult mega = test::render(flat, 2, Integrator::kMegakernel);
+  const RenderResult wave = test::render(flat, 2, Integrator::kWavefront);
+  EXPECT_EQ(mega.image.rgb, wave.image.rgb);
+  EXPECT_EQ(mega.stats.rays, wave.stats.rays);
+}
+
+TEST(EveryKindOfLight, WavefrontEqualsMegakernelBitwise) {
+  const SceneDescription scene = every_kind_of_light();
+  RenderSettings settings = scene.render;
+  settings.samples_per_pixel = 4;
+  const FlatScene<float> flat = flatten_scene<float>(scene, settings);
+  const RenderResult mega = test::render(flat, 2, Integrator::kMegakernel);
+  const RenderResult wave = test::render(flat, 2, Integrator::kWavefront);
+  EXPECT_EQ(mega.image.rgb, wave.image.rgb);
+  EXPECT_EQ(mega.stats.rays, wave.stats.rays);
+  // Shadow rays are counted: more rays than the same paths without them.
+  EXPECT_GT(mega.stats.rays, test::render(flatten_scene<float>(scene, with_light_sampling(settings, LightSampling::kNone)), 2).stats.rays);
+}
+
+}  // namespace
+}  // namespace pt
