@@ -596,7 +596,7 @@ struct MeshBuild {
   std::vector<Vec3d> positions, normals;
   std::vector<std::array<double, 2>> uvs;
   std::vector<MeshTriangle> triangles;
-  BuiltBvh bvh;
+  BuiltBvh<double> bvh;
 };
 
 // The mesh with its vertices mapped by `placed` (the identity for a shared mesh, kept in its own space), triangles
@@ -915,7 +915,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   }
 
   const auto bvh_start = std::chrono::steady_clock::now();
-  const BuiltBvh bvh = build_bvh(bounds);
+  const BuiltBvh<double> bvh = build_bvh(bounds);
   try {
   flat.bvh_depth = bvh.depth;
   flat.nodes.reserve(bvh.nodes.size());
