@@ -9,6 +9,8 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -367,18 +369,26 @@ Aabb geometry_bounds(const Primitive<double>& p, double shutter_open, double shu
   return box;
 }
 
+// A node's box in double, its corners multiplied by `scale` (exact: a power of two).
+template <class S>
+Aabb scaled_box(const BvhNode<S>& n, double scale) {
+  const Vec3d lo{n.lo.x, n.lo.y, n.lo.z}, hi{n.hi.x, n.hi.y, n.hi.z};
+  return scale == 1 ? Aabb{lo, hi} : Aabb{lo * scale, hi * scale};
+}
+
 // Widens a box so that rounding in the kernels' scalar type can never make a ray miss the box of a primitive
-// it hits (the BVH must find exactly what brute force finds).
-template <class T>
-BvhNode<T> padded_node(const BvhNode<double>& n) {
+// it hits (the BVH must find exactly what brute force finds). The box is the node's multiplied by `scale`.
+template <class T, class S>
+BvhNode<T> padded_node(const BvhNode<S>& node, double scale = 1) {
+  const Aabb n = scaled_box(node, scale);
   const Vec3d extent = n.hi - n.lo;
   const double magnitude = std::max(max_component(vmax(vmax(n.lo, -n.lo), vmax(n.hi, -n.hi))), max_component(extent));
   const double pad = 1e-5 * magnitude + 1e-9;
   BvhNode<T> out;
   out.lo = to<T>(n.lo - Vec3d::splat(pad));
   out.hi = to<T>(n.hi + Vec3d::splat(pad));
-  out.left_first = n.left_first;
-  out.count = n.count;
+  out.left_first = node.left_first;
+  out.count = node.count;
   return out;
 }
 
@@ -386,13 +396,18 @@ BvhNode<T> padded_node(const BvhNode<double>& n) {
 // (its primitives are one contiguous range), a wide node, or is shared out among up to kWideBvhWidth children of
 // its wide parent, whichever gives the least expected cost per ray (kWideNodeCost, kWidePrimitiveCost). Opening
 // the widest boxes greedily, as before, left most nodes at the bottom of the tree with two children.
-template <class T>
+// The binary nodes' boxes are multiplied by `scale` (a power of two) as they are read.
+//
+// Memory: 8 bytes a binary node (one byte per number of slots: the choice made), besides the result. The costs of
+// a subtree are needed only until its parent is planned; planning goes backwards through the depth-first array,
+// so those waiting form a stack no deeper than the tree.
+template <class T, class S>
 class WideBvhBuilder {
  public:
-  explicit WideBvhBuilder(const std::vector<BvhNode<double>>& binary) : binary_(binary) {}
+  explicit WideBvhBuilder(const std::vector<BvhNode<S>>& binary, double scale = 1) : binary_(binary), scale_(scale) {}
 
   std::vector<WideBvhNode<T>> build() {
-    const BvhNode<double>& root = binary_[0];
+    const BvhNode<S>& root = binary_[0];
     if (root.count > 0) {
       const u32 slot = add_node();
       set_child(slot, 0, 0, root.left_first, root.count);
@@ -401,6 +416,7 @@ class WideBvhBuilder {
       add_node();  // no primitives: no child to enter
     } else {
       plan();
+      wide_.reserve(count_nodes(0));
       emit(0);
     }
     return std::move(wide_);
@@ -409,97 +425,149 @@ class WideBvhBuilder {
  private:
   // How a subtree is best represented as at most `slots` children of a wide node.
   enum class Form : u8 { kLeaf, kNode, kFewerSlots, kShared };
-  struct Choice {
-    double cost = 0;
-    Form form = Form::kLeaf;
-    u8 left_slots = 0;  // kShared: slots given to the left subtree, the rest to the right
+  // The choice for each number of slots (index slots - 1): the form in the low two bits and above them, for
+  // kShared, the slots given to the left subtree (the rest go to the right). For one slot, the bits above hold
+  // how the node's kWideBvhWidth children are shared between its subtrees should it become a wide node.
+  using Choices = std::array<u8, kWideBvhWidth>;
+  static u8 pack(Form form, u32 left_slots) { return static_cast<u8>(static_cast<u32>(form) | left_slots << 2); }
+  Form form(u32 n, u32 slots) const { return static_cast<Form>(choices_[n][slots - 1] & 3); }
+  u32 left_slots(u32 n, u32 slots) const { return choices_[n][slots - 1] >> 2; }
+
+  // A planned subtree whose parent is not planned yet: its expected cost with each number of slots (1 to
+  // kWideBvhWidth) and its primitive count.
+  struct Planned {
+    u32 node = 0, size = 0;
+    std::array<double, kWideBvhWidth + 1> cost{};
   };
-  using Choices = std::array<Choice, kWideBvhWidth + 1>;  // index: slots, 1 to kWideBvhWidth
 
   u32 add_node() {
     wide_.push_back(WideBvhNode<T>{});
     return static_cast<u32>(wide_.size() - 1);
   }
   void set_child(u32 slot, u32 lane, u32 binary_index, u32 child, u32 count) {
-    const BvhNode<T> box = padded_node<T>(binary_[binary_index]);
+    const BvhNode<T> box = padded_node<T>(binary_[binary_index], scale_);
     const T planes[6] = {box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z};
     for (int p = 0; p < 6; ++p) wide_[slot].bounds[p][lane] = planes[p];
     wide_[slot].child[lane] = child;
     wide_[slot].count[lane] = count;
   }
-  static double area(const BvhNode<double>& n) {
-    const Vec3d d = n.hi - n.lo;
+  double area(u32 n) const {
+    const Aabb box = scaled_box(binary_[n], scale_);
+    const Vec3d d = box.hi - box.lo;
     return d.x * d.y + d.y * d.z + d.z * d.x;
   }
   bool is_leaf(u32 n) const { return binary_[n].count > 0; }
   u32 left(u32 n) const { return n + 1; }  // depth-first order: the first child follows its parent
   u32 right(u32 n) const { return binary_[n].left_first; }
+  // A subtree's primitives are one range: from its leftmost leaf's first to its rightmost leaf's last.
+  u32 first(u32 n) const {
+    while (!is_leaf(n)) n = left(n);
+    return binary_[n].left_first;
+  }
+  u32 size(u32 n) const {
+    u32 last = n;
+    while (!is_leaf(last)) last = right(last);
+    return binary_[last].left_first + binary_[last].count - first(n);
+  }
 
-  // The cheapest split of `slots` children between the two subtrees of interior node n.
-  Choice shared(u32 n, u32 slots) const {
-    Choice best{std::numeric_limits<double>::infinity(), Form::kShared, 0};
+  // The cheapest split of `slots` children between the two subtrees of an interior node: its cost and the slots of
+  // the left subtree (0 where there is none, for one slot).
+  static std::pair<double, u32> shared(const Planned& left, const Planned& right, u32 slots) {
+    std::pair<double, u32> best{std::numeric_limits<double>::infinity(), 0};
     for (u32 k = 1; k < slots; ++k) {
-      const double cost = choices_[left(n)][k].cost + choices_[right(n)][slots - k].cost;
-      if (cost < best.cost) best = Choice{cost, Form::kShared, static_cast<u8>(k)};
+      const double cost = left.cost[k] + right.cost[slots - k];
+      if (cost < best.first) best = {cost, k};
     }
     return best;
   }
 
-  // Fills choices_ bottom-up (children come after their parent in the binary array), with each subtree's first
-  // primitive and primitive count.
+  // Fills choices_ bottom-up: backwards through the depth-first array, where a node's subtrees come after it, the
+  // left one planned last.
   void plan() {
     const std::size_t count = binary_.size();
-    choices_.assign(count, Choices{});
-    first_.assign(count, 0);
-    size_.assign(count, 0);
+    choices_.assign(count, Choices{});  // zero: kLeaf for every number of slots
+    std::vector<Planned> waiting;
+    waiting.reserve(kBvhMaxDepth + 2);
     for (std::size_t i = count; i-- > 0;) {
       const u32 n = static_cast<u32>(i);
-      const double a = area(binary_[n]);
+      const double a = area(n);
+      Planned p{n, 0, {}};
       if (is_leaf(n)) {
-        first_[n] = binary_[n].left_first;
-        size_[n] = binary_[n].count;
-        for (u32 slots = 1; slots <= kWideBvhWidth; ++slots) choices_[n][slots] = Choice{a * size_[n] * kWidePrimitiveCost, Form::kLeaf, 0};
+        p.size = binary_[n].count;
+        for (u32 slots = 1; slots <= kWideBvhWidth; ++slots) p.cost[slots] = a * p.size * kWidePrimitiveCost;
+        waiting.push_back(p);
         continue;
       }
-      first_[n] = first_[left(n)];
-      size_[n] = size_[left(n)] + size_[right(n)];
-      Choice one{a * kWideNodeCost + shared(n, kWideBvhWidth).cost, Form::kNode, 0};
-      if (size_[n] <= kMaxLeafSize && a * size_[n] * kWidePrimitiveCost <= one.cost) one = Choice{a * size_[n] * kWidePrimitiveCost, Form::kLeaf, 0};
-      choices_[n][1] = one;
-      for (u32 slots = 2; slots <= kWideBvhWidth; ++slots) {
-        const Choice split = shared(n, slots);
-        choices_[n][slots] = split.cost < choices_[n][slots - 1].cost ? split : Choice{choices_[n][slots - 1].cost, Form::kFewerSlots, 0};
+      if (waiting.size() < 2 || waiting.back().node != left(n) || waiting[waiting.size() - 2].node != right(n))
+        throw std::logic_error("the binary BVH is not in depth-first order");
+      const Planned l = waiting.back();
+      waiting.pop_back();
+      const Planned r = waiting.back();
+      waiting.pop_back();
+      p.size = l.size + r.size;
+      const auto [node_cost, node_left_slots] = shared(l, r, kWideBvhWidth);
+      p.cost[1] = a * kWideNodeCost + node_cost;
+      Form one = Form::kNode;
+      if (p.size <= kMaxLeafSize && a * p.size * kWidePrimitiveCost <= p.cost[1]) {
+        p.cost[1] = a * p.size * kWidePrimitiveCost;
+        one = Form::kLeaf;
       }
+      choices_[n][0] = pack(one, node_left_slots);
+      for (u32 slots = 2; slots <= kWideBvhWidth; ++slots) {
+        const auto [split_cost, k] = shared(l, r, slots);
+        if (split_cost < p.cost[slots - 1]) {
+          p.cost[slots] = split_cost;
+          choices_[n][slots - 1] = pack(Form::kShared, k);
+        } else {
+          p.cost[slots] = p.cost[slots - 1];
+          choices_[n][slots - 1] = pack(Form::kFewerSlots, 0);
+        }
+      }
+      waiting.push_back(p);
     }
   }
 
   // The subtrees that become children of one wide node when subtree n gets `slots` of its slots.
   void gather(u32 n, u32 slots, std::vector<u32>& children) const {
-    const Choice& c = choices_[n][slots];
-    switch (c.form) {
+    switch (form(n, slots)) {
       case Form::kFewerSlots: return gather(n, slots - 1, children);
-      case Form::kShared:
-        gather(left(n), c.left_slots, children);
-        gather(right(n), slots - c.left_slots, children);
+      case Form::kShared: {
+        const u32 k = left_slots(n, slots);
+        gather(left(n), k, children);
+        gather(right(n), slots - k, children);
         return;
+      }
       default: children.push_back(n);
     }
+  }
+  // The children of the wide node made for binary interior node n.
+  std::vector<u32> wide_children(u32 n) const {
+    std::vector<u32> children;
+    const u32 k = left_slots(n, 1);
+    gather(left(n), k, children);
+    gather(right(n), kWideBvhWidth - k, children);
+    return children;
+  }
+
+  // How many wide nodes emit(n) makes (so that the result is allocated once).
+  std::size_t count_nodes(u32 n) const {
+    std::size_t total = 1;
+    for (const u32 m : wide_children(n))
+      if (form(m, 1) != Form::kLeaf) total += count_nodes(m);
+    return total;
   }
 
   // Emits the wide node for binary interior node n; returns its position.
   u32 emit(u32 n) {
-    std::vector<u32> children;
-    const Choice split = shared(n, kWideBvhWidth);
-    gather(left(n), split.left_slots, children);
-    gather(right(n), kWideBvhWidth - split.left_slots, children);
+    const std::vector<u32> children = wide_children(n);
     const u32 slot = add_node();
     for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
       const u32 m = children[lane < children.size() ? lane : 0];
-      set_child(slot, lane, m, first_[m], size_[m]);
+      set_child(slot, lane, m, first(m), size(m));
     }
     for (u32 lane = 0; lane < children.size(); ++lane) {
       const u32 m = children[lane];
-      if (choices_[m][1].form == Form::kLeaf) {
+      if (form(m, 1) == Form::kLeaf) {
         wide_[slot].leaf_mask |= 1u << lane;
         continue;
       }
@@ -511,9 +579,9 @@ class WideBvhBuilder {
     return slot;
   }
 
-  const std::vector<BvhNode<double>>& binary_;
+  const std::vector<BvhNode<S>>& binary_;
+  double scale_;
   std::vector<Choices> choices_;
-  std::vector<u32> first_, size_;
   std::vector<WideBvhNode<T>> wide_;
 };
 
@@ -698,7 +766,7 @@ void flatten_meshes(const Fit<T>& fit, const std::vector<MeshBuild>& meshes, con
       flat.mesh_nodes.push_back(out);
     }
     record.wide_root = static_cast<u32>(flat.mesh_wide_nodes.size());
-    const std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T>(m.bvh.nodes).build();
+    const std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T, double>(m.bvh.nodes).build();
     if (flat.mesh_wide_nodes.empty()) flat.mesh_wide_nodes.reserve(wide.size());
     for (WideBvhNode<T> w : wide) {
       for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
@@ -920,7 +988,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.bvh_depth = bvh.depth;
   flat.nodes.reserve(bvh.nodes.size());
   for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
-  flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
+  flat.wide_nodes = WideBvhBuilder<T, double>(bvh.nodes).build();
   make_perlin_tables(flat);
   flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
   flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
