@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 #include <utility>
+#include <variant>
 
 #include <fmt/format.h>
 
@@ -656,15 +657,32 @@ struct MeshPlacementUse {
   u32 object;
 };
 
-// A mesh as the kernels will store it, still in double: vertices, triangles (local vertex indices, scene materials)
-// in BVH order, and its BVH over them.
+// A mesh as the kernels will store it, before conversion to their scalar type: triangles (local vertex indices,
+// scene materials) in BVH order and its BVH over them. Vertices, normals and texture coordinates are not copied:
+// they are read from the file's mesh, mapped by `placed`, when converted.
 struct MeshBuild {
   u32 object;        // the first object placing it, for messages
   std::string name;  // the file's name for it
-  std::vector<Vec3d> positions, normals;
-  std::vector<std::array<double, 2>> uvs;
+  const TriangleMesh* source = nullptr;
+  AffineTransform placed;  // mesh space to the space the mesh is stored in (the identity for a shared mesh)
+  bool identity = true;    // placed is the identity
+  bool has_normals = false, has_uvs = false;
+  double scale = 1;  // flatten_scene's scale, applied to lengths as they are converted
   std::vector<MeshTriangle> triangles;
-  BuiltBvh<double> bvh;
+  // Float boxes where the mesh's coordinates fit float (half the memory of double; exact corners for float
+  // vertices, rounded outward otherwise), double boxes beyond.
+  std::variant<BuiltBvh<float>, BuiltBvh<double>> bvh;
+
+  Vec3d position(u32 v) const { return identity ? source->positions[v] : placed.apply_point(source->positions[v]); }
+  Vec3d normal(u32 v) const {
+    const Vec3d turned = identity ? source->normals[v] : placed.apply_normal(source->normals[v]);
+    const double length_squared_n = length_squared(turned);
+    return length_squared_n > 0 ? turned / std::sqrt(length_squared_n) : Vec3d{0, 0, 0};
+  }
+  // The root's box, in double, before scaling.
+  Aabb root() const {
+    return std::visit([](const auto& b) { return scaled_box(b.nodes[0], 1); }, bvh);
+  }
 };
 
 // The mesh with its vertices mapped by `placed` (the identity for a shared mesh, kept in its own space), triangles
@@ -675,28 +693,35 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
   MeshBuild out;
   out.object = use.object;
   out.name = mesh.name;
-  const bool identity = placed.is_identity();
-  out.positions.reserve(mesh.positions.size());
-  for (const Vec3d& p : mesh.positions) out.positions.push_back(identity ? p : placed.apply_point(p));
-  if (mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty()) {
-    out.normals.reserve(mesh.normals.size());
-    for (const Vec3d& n : mesh.normals) {
-      const Vec3d turned = identity ? n : placed.apply_normal(n);
-      const double length_squared_n = length_squared(turned);
-      out.normals.push_back(length_squared_n > 0 ? turned / std::sqrt(length_squared_n) : Vec3d{0, 0, 0});
-    }
+  out.source = &mesh;
+  out.placed = placed;
+  out.identity = placed.is_identity();
+  out.has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+  out.has_uvs = mesh.uvs.size() == mesh.positions.size() && !mesh.uvs.empty();
+  // The mapped vertices, for the build only (freed when it returns).
+  std::vector<Vec3d> mapped;
+  if (!out.identity) {
+    mapped.reserve(mesh.positions.size());
+    for (const Vec3d& p : mesh.positions) mapped.push_back(placed.apply_point(p));
   }
-  if (mesh.uvs.size() == mesh.positions.size()) out.uvs = mesh.uvs;
+  const std::vector<Vec3d>& positions = out.identity ? mesh.positions : mapped;
+  double largest_coordinate = 0;
+  for (const Vec3d& p : positions) largest_coordinate = std::max({largest_coordinate, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const bool float_boxes = float_box_fits(largest_coordinate);
   // A mirroring map turns the winding around: swap two vertices so that the front stays the front.
   const bool mirrored = placed.determinant() < 0;
+  std::vector<FloatBox> float_bounds;
   std::vector<Aabb> bounds;
   out.triangles.reserve(mesh.triangles.size());
-  bounds.reserve(mesh.triangles.size());
+  if (float_boxes)
+    float_bounds.reserve(mesh.triangles.size());
+  else
+    bounds.reserve(mesh.triangles.size());
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const std::array<u32, 3>& v = mesh.triangles[t];
-    const Vec3d& a = out.positions[v[0]];
-    const Vec3d& b = out.positions[v[1]];
-    const Vec3d& c = out.positions[v[2]];
+    const Vec3d& a = positions[v[0]];
+    const Vec3d& b = positions[v[1]];
+    const Vec3d& c = positions[v[2]];
     if (length_squared(cross(b - a, c - a)) == 0) continue;
     const u32 file_material = mesh.materials.empty() ? 0 : mesh.materials[t];
     const u32 material = file_material < entry.materials.size() ? entry.materials[file_material] : entry.materials.at(0);
@@ -705,76 +730,130 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
     box.grow(a);
     box.grow(b);
     box.grow(c);
-    bounds.push_back(box);
+    if (float_boxes)
+      float_bounds.push_back(outward_float_box(box));
+    else
+      bounds.push_back(box);
   }
-  out.bvh = build_bvh(bounds);
+  std::vector<Vec3d>().swap(mapped);
+  std::vector<u32> order;
+  if (float_boxes) {
+    BuiltBvh<float> built = build_bvh(float_bounds);
+    std::vector<FloatBox>().swap(float_bounds);
+    order = std::move(built.order);
+    out.bvh = std::move(built);
+  } else {
+    BuiltBvh<double> built = build_bvh(bounds);
+    std::vector<Aabb>().swap(bounds);
+    order = std::move(built.order);
+    out.bvh = std::move(built);
+  }
   std::vector<MeshTriangle> ordered;
   ordered.reserve(out.triangles.size());
-  for (u32 i : out.bvh.order) ordered.push_back(out.triangles[i]);
+  for (u32 i : order) ordered.push_back(out.triangles[i]);
   out.triangles = std::move(ordered);
   return out;
 }
 
 // The box of a mesh's BVH root mapped by an affine map: the box of its eight mapped corners.
-Aabb mapped_box(const BvhNode<double>& root, const AffineTransform& map) {
+Aabb mapped_box(const Aabb& root, const AffineTransform& map) {
   Aabb box;
   for (int corner = 0; corner < 8; ++corner)
     box.grow(map.apply_point(Vec3d{corner & 1 ? root.hi.x : root.lo.x, corner & 2 ? root.hi.y : root.lo.y, corner & 4 ? root.hi.z : root.lo.z}));
   return box;
 }
 
+// Appends `from` to `to` and frees it; where `to` has no storage yet (one mesh), it takes the array over instead.
+template <class A>
+void append_and_free(A& to, A& from) {
+  if (to.capacity() == 0)
+    to = std::move(from);
+  else
+    to.insert(to.end(), from.begin(), from.end());
+  A().swap(from);
+}
+
 // The meshes' arrays in the kernels' type: vertices checked as lengths (a mesh's extent stands for its triangles'
 // edges), normals and texture coordinates as plain values, the BVHs padded and their indices made global, and the
-// instances' maps with their inverses and the normals' inverse transpose.
+// instances' maps with their inverses and the normals' inverse transpose. Each mesh's own arrays are freed as soon
+// as they are converted, so that the peak of memory stays near the result's size.
 template <class T>
-void flatten_meshes(const Fit<T>& fit, const std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
+void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
                     FlatScene<T>& flat) {
-  std::size_t vertices = 0, triangles = 0, nodes = 0;
+  std::size_t vertices = 0, normals = 0, uvs = 0;
   for (const MeshBuild& m : meshes) {
-    vertices += m.positions.size();
-    triangles += m.triangles.size();
-    nodes += m.bvh.nodes.size();
+    vertices += m.source->positions.size();
+    normals += m.has_normals ? m.source->positions.size() : 0;
+    uvs += m.has_uvs ? m.source->positions.size() : 0;
   }
   flat.mesh_positions.reserve(vertices);
-  flat.mesh_triangles.reserve(triangles);
-  flat.mesh_nodes.reserve(nodes);
-  for (const MeshBuild& m : meshes) {
+  flat.mesh_normals.reserve(normals);
+  flat.mesh_uvs.reserve(uvs);
+  if (meshes.size() > 1) {  // one mesh's arrays are taken over (append_and_free)
+    std::size_t triangles = 0, nodes = 0;
+    for (const MeshBuild& m : meshes) {
+      triangles += m.triangles.size();
+      nodes += std::visit([](const auto& b) { return b.nodes.size(); }, m.bvh);
+    }
+    flat.mesh_triangles.reserve(triangles);
+    flat.mesh_nodes.reserve(nodes);
+  }
+  for (MeshBuild& m : meshes) {
     const std::string where = "/objects/" + std::to_string(m.object) + "/file";
     const std::string vertex = fmt::format("a vertex of mesh '{}'", m.name);
+    const double scale = m.scale;
+    const u32 vertex_count = static_cast<u32>(m.source->positions.size());
     MeshRecord record{};
     record.first_vertex = static_cast<u32>(flat.mesh_positions.size());
-    for (const Vec3d& p : m.positions) flat.mesh_positions.push_back(fit(p, Quantity::kLength, where, vertex));
-    fit(m.bvh.nodes[0].hi - m.bvh.nodes[0].lo, Quantity::kTriangleEdge, where, fmt::format("the extent of mesh '{}', which bounds its edges", m.name));
+    for (u32 v = 0; v < vertex_count; ++v) {
+      Vec3d p = m.position(v);
+      if (scale != 1) p = p * scale;
+      flat.mesh_positions.push_back(fit(p, Quantity::kLength, where, vertex));
+    }
+    const Aabb root = m.root();
+    fit(root.hi * scale - root.lo * scale, Quantity::kTriangleEdge, where, fmt::format("the extent of mesh '{}', which bounds its edges", m.name));
     record.first_normal = kNoAttributes;
-    if (!m.normals.empty()) {
+    if (m.has_normals) {
       record.first_normal = static_cast<u32>(flat.mesh_normals.size());
-      for (const Vec3d& n : m.normals) flat.mesh_normals.push_back(fit(n, Quantity::kPlain, where, "a vertex normal"));
+      for (u32 v = 0; v < vertex_count; ++v) flat.mesh_normals.push_back(fit(m.normal(v), Quantity::kPlain, where, "a vertex normal"));
     }
     record.first_uv = kNoAttributes;
-    if (!m.uvs.empty()) {
+    if (m.has_uvs) {
       record.first_uv = static_cast<u32>(flat.mesh_uvs.size());
-      for (const auto& uv : m.uvs)
+      for (const auto& uv : m.source->uvs)
         flat.mesh_uvs.push_back(MeshUv<T>{fit(uv[0], Quantity::kPlain, where, "a texture coordinate"), fit(uv[1], Quantity::kPlain, where, "a texture coordinate")});
     }
     record.first_triangle = static_cast<u32>(flat.mesh_triangles.size());
     record.triangle_count = static_cast<u32>(m.triangles.size());
-    flat.mesh_triangles.insert(flat.mesh_triangles.end(), m.triangles.begin(), m.triangles.end());
+    append_and_free(flat.mesh_triangles, m.triangles);
     record.root = static_cast<u32>(flat.mesh_nodes.size());
-    for (const BvhNode<double>& n : m.bvh.nodes) {
-      BvhNode<T> out = padded_node<T>(n);
-      out.left_first += n.count > 0 ? record.first_triangle : record.root;
-      flat.mesh_nodes.push_back(out);
-    }
     record.wide_root = static_cast<u32>(flat.mesh_wide_nodes.size());
-    const std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T, double>(m.bvh.nodes).build();
-    if (flat.mesh_wide_nodes.empty()) flat.mesh_wide_nodes.reserve(wide.size());
-    for (WideBvhNode<T> w : wide) {
-      for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
-        if (w.leaf_mask & (1u << lane)) w.child[lane] += record.first_triangle;
-        if (w.inner_mask & (1u << lane)) w.child[lane] += record.wide_root;
-      }
-      flat.mesh_wide_nodes.push_back(w);
-    }
+    std::visit(
+        [&]<class S>(BuiltBvh<S>& bvh) {
+          // The wide tree first, while the binary nodes are still as built; then the binary nodes, converted in
+          // place where the kernels' nodes are the built ones' type.
+          std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T, S>(bvh.nodes, scale).build();
+          for (WideBvhNode<T>& w : wide)
+            for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
+              if (w.leaf_mask & (1u << lane)) w.child[lane] += record.first_triangle;
+              if (w.inner_mask & (1u << lane)) w.child[lane] += record.wide_root;
+            }
+          append_and_free(flat.mesh_wide_nodes, wide);
+          auto global = [&](const BvhNode<S>& n) {
+            BvhNode<T> out = padded_node<T>(n, scale);
+            out.left_first += n.count > 0 ? record.first_triangle : record.root;
+            return out;
+          };
+          if constexpr (std::is_same_v<S, T>) {
+            for (BvhNode<S>& n : bvh.nodes) n = global(n);
+            append_and_free(flat.mesh_nodes, bvh.nodes);
+          } else {
+            if (flat.mesh_nodes.capacity() == 0) flat.mesh_nodes.reserve(bvh.nodes.size());
+            for (const BvhNode<S>& n : bvh.nodes) flat.mesh_nodes.push_back(global(n));
+            std::vector<BvhNode<S>>().swap(bvh.nodes);
+          }
+        },
+        m.bvh);
     flat.meshes.push_back(record);
   }
   for (std::size_t i = 0; i < maps.size(); ++i) {
@@ -878,7 +957,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       if (uses[key] == 1) {
         instance_mesh[i] = static_cast<u32>(meshes.size());
         meshes.push_back(build_mesh(scene, use, use.transform));
-        instance_bounds[i] = Aabb{meshes.back().bvh.nodes[0].lo, meshes.back().bvh.nodes[0].hi};
+        instance_bounds[i] = meshes.back().root();
         continue;
       }
       auto it = shared.find(key);
@@ -893,7 +972,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       instance_transform[i] = static_cast<u32>(instance_maps.size());
       instance_maps.push_back(use.transform);
       instance_objects.push_back(use.object);
-      instance_bounds[i] = mapped_box(meshes[it->second].bvh.nodes[0], use.transform);
+      instance_bounds[i] = mapped_box(meshes[it->second].root(), use.transform);
     }
   }
 
@@ -939,10 +1018,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     camera.look_at = camera.look_at * scale;
     camera.focus_distance *= scale;
     camera.aperture *= scale;
-    for (MeshBuild& m : meshes) {
-      for (Vec3d& p : m.positions) p = p * scale;
-      for (BvhNode<double>& n : m.bvh.nodes) n.lo = n.lo * scale, n.hi = n.hi * scale;
-    }
+    for (MeshBuild& m : meshes) m.scale = scale;  // applied as the meshes are converted
     for (AffineTransform& a : instance_maps) a.translation = a.translation * scale;
     for (Aabb& b : instance_bounds) b.lo = b.lo * scale, b.hi = b.hi * scale;
     bounds = all_bounds();
