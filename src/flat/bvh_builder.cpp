@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 
+#include "base/free_memory.hpp"
 #include "base/parallel_loop.hpp"
 
 namespace pt {
@@ -37,6 +38,8 @@ class Builder {
   // own that is appended after the first. Every split is computed exactly as one thread computes it, and the nodes
   // end up in the same depth-first order, so the tree does not depend on the number of threads.
   static constexpr u32 kParallelSubtree = 16384;
+  // After merging the second half of a subtree this large, its freed list is given back to the system at once.
+  static constexpr u32 kReleaseSubtree = 1u << 18;
 
   static void make_leaf(std::vector<Node>& nodes, u32 index, u32 first, u32 count) {
     nodes[index].left_first = first;
@@ -136,6 +139,8 @@ class Builder {
         if (n.count == 0) n.left_first += offset;  // an interior node's second child; leaves index primitives
         nodes.push_back(n);
       }
+      std::vector<Node>().swap(right_nodes);
+      if (count >= kReleaseSubtree) release_free_memory();
     }
     nodes[index].count = 0;
     return std::max(left_depth, right_depth);

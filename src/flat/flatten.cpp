@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "flat/bvh_builder.hpp"
+#include "base/free_memory.hpp"
 #include "base/number_formats.hpp"
 #include "image/image_io.hpp"
 #include "meshes/mesh.hpp"
@@ -748,10 +749,14 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
     order = std::move(built.order);
     out.bvh = std::move(built);
   }
-  std::vector<MeshTriangle> ordered;
-  ordered.reserve(out.triangles.size());
-  for (u32 i : order) ordered.push_back(out.triangles[i]);
-  out.triangles = std::move(ordered);
+  {
+    std::vector<MeshTriangle> ordered;
+    ordered.reserve(out.triangles.size());
+    for (u32 i : order) ordered.push_back(out.triangles[i]);
+    out.triangles = std::move(ordered);
+  }
+  std::vector<u32>().swap(order);
+  release_free_memory();  // the boxes, the order and the unordered triangles
   return out;
 }
 
