@@ -195,6 +195,27 @@ TYPED_TEST(BvhMatchesBruteForce, RandomSpheresTrianglesQuadsMovingSpheresAndMedi
   EXPECT_EQ(flat.meshes.size(), 2u);
 }
 
+// A mesh whose coordinates are beyond float's range (a double scene may hold them up to 2^504) keeps double boxes
+// for its BVH (float ones would be infinite).
+TEST(BvhMatchesBruteForceInDouble, MeshBeyondFloatRange) {
+  const double big = 0x1p140;  // float reaches 2^128
+  TestRandom rng(99);
+  SceneDescription scene = test::generated_scene({0, 2, 12});
+  const u32 file = add_mesh_file(scene, test::triangle_soup(rng, 600), "/objects");
+  test::place_mesh(scene, file, {big, big, big}, {10, 20, 30}, {0, 0, 0});
+  const FlatScene<double> flat = test::flatten<double>(scene);
+  ASSERT_EQ(flat.meshes.size(), 1u);
+  ASSERT_GT(flat.mesh_nodes.size(), 100u);
+  for (const BvhNode<double>& n : flat.mesh_nodes)
+    ASSERT_TRUE(std::isfinite(n.lo.x) && std::isfinite(n.lo.y) && std::isfinite(n.lo.z) && std::isfinite(n.hi.x) && std::isfinite(n.hi.y) &&
+                std::isfinite(n.hi.z));
+  std::vector<Ray<double>> rays = random_rays<double>(31, 20000);
+  for (Ray<double>& ray : rays) ray.origin = ray.origin * big;
+  const Comparison<double> result = compare_with_brute_force(flat, rays);
+  EXPECT_EQ(result.mismatches, 0) << result.first_mismatch;
+  EXPECT_GT(result.world_space_mesh_hits, 200);
+}
+
 TYPED_TEST(BvhMatchesBruteForce, RaysStartingOnSurfaces) {
   using T = TypeParam;
   // Secondary rays start on a surface: shoot from hit points of the first rays (not moved off the surface, the
@@ -589,6 +610,54 @@ TEST(BvhStructure, EmptySceneHasNoHits) {
   const IntersectContext<float> context{view.boundaries, &random, 0};
   Hit<float> hit;
   EXPECT_FALSE(closest_hit(view, Ray<float>{{0, 0, 0}, {0, 0, -1}, 0.0f}, context, hit));
+}
+
+// Mesh BVHs are built over float boxes (half the memory of double ones). Where the vertices are floats, as a PLY
+// file's usually are, the boxes are exact and the tree must be the one double boxes give, node for node.
+TEST(BvhBuilder, FloatBoxesOfFloatVerticesGiveTheDoubleTree) {
+  TestRandom random(15);
+  std::vector<Aabb> bounds;
+  std::vector<FloatBox> float_bounds;
+  for (int i = 0; i < 50000; ++i) {  // more than one parallel subtree (16,384 primitives)
+    const Vec3d centre = random.vec3(-100, 100);
+    Aabb box;
+    for (int corner = 0; corner < 3; ++corner) {
+      const Vec3d v = centre + random.vec3(-0.5, 0.5);
+      box.grow(Vec3d{static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z)});
+    }
+    bounds.push_back(box);
+    float_bounds.push_back(outward_float_box(box));
+  }
+  const BuiltBvh<double> wide = build_bvh(bounds);
+  const BuiltBvh<float> narrow = build_bvh(float_bounds);
+  ASSERT_EQ(wide.nodes.size(), narrow.nodes.size());
+  EXPECT_EQ(wide.order, narrow.order);
+  EXPECT_EQ(wide.depth, narrow.depth);
+  for (std::size_t i = 0; i < wide.nodes.size(); ++i) {
+    const BvhNode<double>& a = wide.nodes[i];
+    const BvhNode<float>& b = narrow.nodes[i];
+    ASSERT_TRUE(a.left_first == b.left_first && a.count == b.count && a.lo.x == b.lo.x && a.lo.y == b.lo.y && a.lo.z == b.lo.z &&
+                a.hi.x == b.hi.x && a.hi.y == b.hi.y && a.hi.z == b.hi.z)
+        << "node " << i;
+  }
+}
+
+// Where they are not floats, each corner is rounded outward, by at most one float step.
+TEST(BvhBuilder, FloatBoxesContainTheirDoubleBoxes) {
+  TestRandom random(16);
+  for (int i = 0; i < 10000; ++i) {
+    Aabb box;
+    const double magnitude = std::ldexp(1.0, static_cast<int>(random.uniform(-60, 60)));
+    box.grow(random.vec3(-magnitude, magnitude));
+    box.grow(random.vec3(-magnitude, magnitude));
+    const FloatBox f = outward_float_box(box);
+    for (int axis = 0; axis < 3; ++axis) {
+      ASSERT_LE(static_cast<double>(f.lo[axis]), box.lo[axis]);
+      ASSERT_GE(static_cast<double>(f.hi[axis]), box.hi[axis]);
+      ASSERT_GT(static_cast<double>(std::nextafter(f.lo[axis], largest<float>())), box.lo[axis]);
+      ASSERT_LT(static_cast<double>(std::nextafter(f.hi[axis], -largest<float>())), box.hi[axis]);
+    }
+  }
 }
 
 }  // namespace

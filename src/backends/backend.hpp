@@ -23,7 +23,9 @@ class RenderBackend {
   // Human-readable description, e.g. "cpu (2 threads)".
   virtual std::string name() const = 0;
 
-  // Copies the scene to wherever the backend renders and clears the film to params.width x params.height.
+  // Copies the scene to wherever the backend renders and clears the film to params.width x params.height. A
+  // backend whose memory is the host's (the CPU) reads the scene's own arrays instead: the scene must then stay
+  // alive and unchanged until the next upload or the backend's end.
   virtual void upload(const FlatScene<T>& scene) = 0;
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film. Samples must be

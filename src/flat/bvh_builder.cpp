@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 
+#include "base/free_memory.hpp"
 #include "base/parallel_loop.hpp"
 
 namespace pt {
@@ -15,16 +16,18 @@ constexpr int kBins = 16;
 constexpr double kTraversalCost = 1.0;
 constexpr double kIntersectionCost = 1.0;
 
+// Centroids are not stored: each is computed from its box when needed, in double (Box::centroid).
+template <class S>
 class Builder {
  public:
-  explicit Builder(const std::vector<Aabb>& bounds) : bounds_(bounds) {
+  using Node = BvhNode<S>;
+
+  explicit Builder(const std::vector<Box<S>>& bounds) : bounds_(bounds) {
     result_.order.resize(bounds.size());
     for (u32 i = 0; i < bounds.size(); ++i) result_.order[i] = i;
-    centroids_.reserve(bounds.size());
-    for (const Aabb& b : bounds) centroids_.push_back(b.centroid());
   }
 
-  BuiltBvh build() {
+  BuiltBvh<S> build() {
     result_.nodes.reserve(2 * bounds_.size());
     result_.depth = build_node(0, static_cast<u32>(bounds_.size()), 1, result_.nodes);
     return std::move(result_);
@@ -35,20 +38,24 @@ class Builder {
   // own that is appended after the first. Every split is computed exactly as one thread computes it, and the nodes
   // end up in the same depth-first order, so the tree does not depend on the number of threads.
   static constexpr u32 kParallelSubtree = 16384;
+  // After merging the second half of a subtree this large, its freed list is given back to the system at once.
+  static constexpr u32 kReleaseSubtree = 1u << 18;
 
-  static void make_leaf(std::vector<BvhNode<double>>& nodes, u32 index, u32 first, u32 count) {
+  static void make_leaf(std::vector<Node>& nodes, u32 index, u32 first, u32 count) {
     nodes[index].left_first = first;
     nodes[index].count = count;
   }
 
   // Builds the subtree over order[first, first + count) at the end of `nodes` (whose indices it uses); returns its depth.
-  u32 build_node(u32 first, u32 count, u32 depth, std::vector<BvhNode<double>>& nodes) {
+  u32 build_node(u32 first, u32 count, u32 depth, std::vector<Node>& nodes) {
     const u32 index = static_cast<u32>(nodes.size());
     nodes.push_back({});
-    Aabb box, centroid_box;
+    Box<S> box;
+    Aabb centroid_box;
     for (u32 i = first; i < first + count; ++i) {
-      box.grow(bounds_[result_.order[i]]);
-      centroid_box.grow(centroids_[result_.order[i]]);
+      const Box<S>& b = bounds_[result_.order[i]];
+      box.grow(b);
+      centroid_box.grow(b.centroid());
     }
     nodes[index].lo = box.lo;
     nodes[index].hi = box.hi;
@@ -63,16 +70,17 @@ class Builder {
     for (int axis = 0; axis < 3; ++axis) {
       const double lo = centroid_box.lo[axis], extent = centroid_box.hi[axis] - lo;
       if (!(extent > 0)) continue;
-      std::array<Aabb, kBins> bin_boxes;
+      std::array<Box<S>, kBins> bin_boxes;
       std::array<u32, kBins> bin_counts{};
       for (u32 i = first; i < first + count; ++i) {
-        const int b = bin_of(centroids_[result_.order[i]][axis], lo, extent);
-        bin_boxes[b].grow(bounds_[result_.order[i]]);
+        const Box<S>& box_i = bounds_[result_.order[i]];
+        const int b = bin_of(box_i.centroid(axis), lo, extent);
+        bin_boxes[b].grow(box_i);
         ++bin_counts[b];
       }
       std::array<double, kBins> right_area{};
       std::array<u32, kBins> right_count{};
-      Aabb running;
+      Box<S> running;
       u32 running_count = 0;
       for (int b = kBins - 1; b > 0; --b) {
         running.grow(bin_boxes[b]);
@@ -80,7 +88,7 @@ class Builder {
         right_area[b] = running.surface_area();
         right_count[b] = running_count;
       }
-      running = Aabb{};
+      running = Box<S>{};
       running_count = 0;
       for (int b = 0; b < kBins - 1; ++b) {
         running.grow(bin_boxes[b]);
@@ -112,7 +120,7 @@ class Builder {
       }
       const double lo = centroid_box.lo[best_axis], extent = centroid_box.hi[best_axis] - lo;
       const auto it = std::partition(result_.order.begin() + first, result_.order.begin() + first + count,
-                                     [&](u32 p) { return bin_of(centroids_[p][best_axis], lo, extent) <= best_bin; });
+                                     [&](u32 p) { return bin_of(bounds_[p].centroid(best_axis), lo, extent) <= best_bin; });
       middle = static_cast<u32>(it - result_.order.begin());
     }
     u32 left_depth = 0, right_depth = 0;
@@ -121,16 +129,18 @@ class Builder {
       nodes[index].left_first = static_cast<u32>(nodes.size());
       right_depth = build_node(middle, first + count - middle, depth + 1, nodes);
     } else {
-      std::vector<BvhNode<double>> right_nodes;
+      std::vector<Node> right_nodes;
       right_nodes.reserve(2 * (first + count - middle));
       parallel_invoke([&] { left_depth = build_node(first, middle - first, depth + 1, nodes); },
                       [&] { right_depth = build_node(middle, first + count - middle, depth + 1, right_nodes); });
       const u32 offset = static_cast<u32>(nodes.size());
       nodes[index].left_first = offset;
-      for (BvhNode<double> n : right_nodes) {
+      for (Node n : right_nodes) {
         if (n.count == 0) n.left_first += offset;  // an interior node's second child; leaves index primitives
         nodes.push_back(n);
       }
+      std::vector<Node>().swap(right_nodes);
+      if (count >= kReleaseSubtree) release_free_memory();
     }
     nodes[index].count = 0;
     return std::max(left_depth, right_depth);
@@ -141,20 +151,23 @@ class Builder {
     return std::clamp(b, 0, kBins - 1);
   }
 
-  const std::vector<Aabb>& bounds_;
-  std::vector<Vec3<double>> centroids_;  // read by all threads, written before the build
-  BuiltBvh result_;
+  const std::vector<Box<S>>& bounds_;  // read by all threads
+  BuiltBvh<S> result_;
 };
 
 }  // namespace
 
-BuiltBvh build_bvh(const std::vector<Aabb>& bounds) {
+template <class S>
+BuiltBvh<S> build_bvh(const std::vector<Box<S>>& bounds) {
   if (bounds.empty()) {
-    BuiltBvh empty;
-    empty.nodes.push_back(BvhNode<double>{Vec3<double>::splat(1), 0, Vec3<double>::splat(-1), 0});
+    BuiltBvh<S> empty;
+    empty.nodes.push_back(BvhNode<S>{Vec3<S>::splat(1), 0, Vec3<S>::splat(-1), 0});
     return empty;
   }
-  return Builder(bounds).build();
+  return Builder<S>(bounds).build();
 }
+
+template BuiltBvh<double> build_bvh<double>(const std::vector<Box<double>>&);
+template BuiltBvh<float> build_bvh<float>(const std::vector<Box<float>>&);
 
 }  // namespace pt

@@ -9,10 +9,14 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <stdexcept>
+#include <utility>
+#include <variant>
 
 #include <fmt/format.h>
 
 #include "flat/bvh_builder.hpp"
+#include "base/free_memory.hpp"
 #include "base/number_formats.hpp"
 #include "image/image_io.hpp"
 #include "meshes/mesh.hpp"
@@ -367,18 +371,26 @@ Aabb geometry_bounds(const Primitive<double>& p, double shutter_open, double shu
   return box;
 }
 
+// A node's box in double, its corners multiplied by `scale` (exact: a power of two).
+template <class S>
+Aabb scaled_box(const BvhNode<S>& n, double scale) {
+  const Vec3d lo{n.lo.x, n.lo.y, n.lo.z}, hi{n.hi.x, n.hi.y, n.hi.z};
+  return scale == 1 ? Aabb{lo, hi} : Aabb{lo * scale, hi * scale};
+}
+
 // Widens a box so that rounding in the kernels' scalar type can never make a ray miss the box of a primitive
-// it hits (the BVH must find exactly what brute force finds).
-template <class T>
-BvhNode<T> padded_node(const BvhNode<double>& n) {
+// it hits (the BVH must find exactly what brute force finds). The box is the node's multiplied by `scale`.
+template <class T, class S>
+BvhNode<T> padded_node(const BvhNode<S>& node, double scale = 1) {
+  const Aabb n = scaled_box(node, scale);
   const Vec3d extent = n.hi - n.lo;
   const double magnitude = std::max(max_component(vmax(vmax(n.lo, -n.lo), vmax(n.hi, -n.hi))), max_component(extent));
   const double pad = 1e-5 * magnitude + 1e-9;
   BvhNode<T> out;
   out.lo = to<T>(n.lo - Vec3d::splat(pad));
   out.hi = to<T>(n.hi + Vec3d::splat(pad));
-  out.left_first = n.left_first;
-  out.count = n.count;
+  out.left_first = node.left_first;
+  out.count = node.count;
   return out;
 }
 
@@ -386,13 +398,18 @@ BvhNode<T> padded_node(const BvhNode<double>& n) {
 // (its primitives are one contiguous range), a wide node, or is shared out among up to kWideBvhWidth children of
 // its wide parent, whichever gives the least expected cost per ray (kWideNodeCost, kWidePrimitiveCost). Opening
 // the widest boxes greedily, as before, left most nodes at the bottom of the tree with two children.
-template <class T>
+// The binary nodes' boxes are multiplied by `scale` (a power of two) as they are read.
+//
+// Memory: 8 bytes a binary node (one byte per number of slots: the choice made), besides the result. The costs of
+// a subtree are needed only until its parent is planned; planning goes backwards through the depth-first array,
+// so those waiting form a stack no deeper than the tree.
+template <class T, class S>
 class WideBvhBuilder {
  public:
-  explicit WideBvhBuilder(const std::vector<BvhNode<double>>& binary) : binary_(binary) {}
+  explicit WideBvhBuilder(const std::vector<BvhNode<S>>& binary, double scale = 1) : binary_(binary), scale_(scale) {}
 
   std::vector<WideBvhNode<T>> build() {
-    const BvhNode<double>& root = binary_[0];
+    const BvhNode<S>& root = binary_[0];
     if (root.count > 0) {
       const u32 slot = add_node();
       set_child(slot, 0, 0, root.left_first, root.count);
@@ -401,6 +418,7 @@ class WideBvhBuilder {
       add_node();  // no primitives: no child to enter
     } else {
       plan();
+      wide_.reserve(count_nodes(0));
       emit(0);
     }
     return std::move(wide_);
@@ -409,97 +427,149 @@ class WideBvhBuilder {
  private:
   // How a subtree is best represented as at most `slots` children of a wide node.
   enum class Form : u8 { kLeaf, kNode, kFewerSlots, kShared };
-  struct Choice {
-    double cost = 0;
-    Form form = Form::kLeaf;
-    u8 left_slots = 0;  // kShared: slots given to the left subtree, the rest to the right
+  // The choice for each number of slots (index slots - 1): the form in the low two bits and above them, for
+  // kShared, the slots given to the left subtree (the rest go to the right). For one slot, the bits above hold
+  // how the node's kWideBvhWidth children are shared between its subtrees should it become a wide node.
+  using Choices = std::array<u8, kWideBvhWidth>;
+  static u8 pack(Form form, u32 left_slots) { return static_cast<u8>(static_cast<u32>(form) | left_slots << 2); }
+  Form form(u32 n, u32 slots) const { return static_cast<Form>(choices_[n][slots - 1] & 3); }
+  u32 left_slots(u32 n, u32 slots) const { return choices_[n][slots - 1] >> 2; }
+
+  // A planned subtree whose parent is not planned yet: its expected cost with each number of slots (1 to
+  // kWideBvhWidth) and its primitive count.
+  struct Planned {
+    u32 node = 0, size = 0;
+    std::array<double, kWideBvhWidth + 1> cost{};
   };
-  using Choices = std::array<Choice, kWideBvhWidth + 1>;  // index: slots, 1 to kWideBvhWidth
 
   u32 add_node() {
     wide_.push_back(WideBvhNode<T>{});
     return static_cast<u32>(wide_.size() - 1);
   }
   void set_child(u32 slot, u32 lane, u32 binary_index, u32 child, u32 count) {
-    const BvhNode<T> box = padded_node<T>(binary_[binary_index]);
+    const BvhNode<T> box = padded_node<T>(binary_[binary_index], scale_);
     const T planes[6] = {box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z};
     for (int p = 0; p < 6; ++p) wide_[slot].bounds[p][lane] = planes[p];
     wide_[slot].child[lane] = child;
     wide_[slot].count[lane] = count;
   }
-  static double area(const BvhNode<double>& n) {
-    const Vec3d d = n.hi - n.lo;
+  double area(u32 n) const {
+    const Aabb box = scaled_box(binary_[n], scale_);
+    const Vec3d d = box.hi - box.lo;
     return d.x * d.y + d.y * d.z + d.z * d.x;
   }
   bool is_leaf(u32 n) const { return binary_[n].count > 0; }
   u32 left(u32 n) const { return n + 1; }  // depth-first order: the first child follows its parent
   u32 right(u32 n) const { return binary_[n].left_first; }
+  // A subtree's primitives are one range: from its leftmost leaf's first to its rightmost leaf's last.
+  u32 first(u32 n) const {
+    while (!is_leaf(n)) n = left(n);
+    return binary_[n].left_first;
+  }
+  u32 size(u32 n) const {
+    u32 last = n;
+    while (!is_leaf(last)) last = right(last);
+    return binary_[last].left_first + binary_[last].count - first(n);
+  }
 
-  // The cheapest split of `slots` children between the two subtrees of interior node n.
-  Choice shared(u32 n, u32 slots) const {
-    Choice best{std::numeric_limits<double>::infinity(), Form::kShared, 0};
+  // The cheapest split of `slots` children between the two subtrees of an interior node: its cost and the slots of
+  // the left subtree (0 where there is none, for one slot).
+  static std::pair<double, u32> shared(const Planned& left, const Planned& right, u32 slots) {
+    std::pair<double, u32> best{std::numeric_limits<double>::infinity(), 0};
     for (u32 k = 1; k < slots; ++k) {
-      const double cost = choices_[left(n)][k].cost + choices_[right(n)][slots - k].cost;
-      if (cost < best.cost) best = Choice{cost, Form::kShared, static_cast<u8>(k)};
+      const double cost = left.cost[k] + right.cost[slots - k];
+      if (cost < best.first) best = {cost, k};
     }
     return best;
   }
 
-  // Fills choices_ bottom-up (children come after their parent in the binary array), with each subtree's first
-  // primitive and primitive count.
+  // Fills choices_ bottom-up: backwards through the depth-first array, where a node's subtrees come after it, the
+  // left one planned last.
   void plan() {
     const std::size_t count = binary_.size();
-    choices_.assign(count, Choices{});
-    first_.assign(count, 0);
-    size_.assign(count, 0);
+    choices_.assign(count, Choices{});  // zero: kLeaf for every number of slots
+    std::vector<Planned> waiting;
+    waiting.reserve(kBvhMaxDepth + 2);
     for (std::size_t i = count; i-- > 0;) {
       const u32 n = static_cast<u32>(i);
-      const double a = area(binary_[n]);
+      const double a = area(n);
+      Planned p{n, 0, {}};
       if (is_leaf(n)) {
-        first_[n] = binary_[n].left_first;
-        size_[n] = binary_[n].count;
-        for (u32 slots = 1; slots <= kWideBvhWidth; ++slots) choices_[n][slots] = Choice{a * size_[n] * kWidePrimitiveCost, Form::kLeaf, 0};
+        p.size = binary_[n].count;
+        for (u32 slots = 1; slots <= kWideBvhWidth; ++slots) p.cost[slots] = a * p.size * kWidePrimitiveCost;
+        waiting.push_back(p);
         continue;
       }
-      first_[n] = first_[left(n)];
-      size_[n] = size_[left(n)] + size_[right(n)];
-      Choice one{a * kWideNodeCost + shared(n, kWideBvhWidth).cost, Form::kNode, 0};
-      if (size_[n] <= kMaxLeafSize && a * size_[n] * kWidePrimitiveCost <= one.cost) one = Choice{a * size_[n] * kWidePrimitiveCost, Form::kLeaf, 0};
-      choices_[n][1] = one;
-      for (u32 slots = 2; slots <= kWideBvhWidth; ++slots) {
-        const Choice split = shared(n, slots);
-        choices_[n][slots] = split.cost < choices_[n][slots - 1].cost ? split : Choice{choices_[n][slots - 1].cost, Form::kFewerSlots, 0};
+      if (waiting.size() < 2 || waiting.back().node != left(n) || waiting[waiting.size() - 2].node != right(n))
+        throw std::logic_error("the binary BVH is not in depth-first order");
+      const Planned l = waiting.back();
+      waiting.pop_back();
+      const Planned r = waiting.back();
+      waiting.pop_back();
+      p.size = l.size + r.size;
+      const auto [node_cost, node_left_slots] = shared(l, r, kWideBvhWidth);
+      p.cost[1] = a * kWideNodeCost + node_cost;
+      Form one = Form::kNode;
+      if (p.size <= kMaxLeafSize && a * p.size * kWidePrimitiveCost <= p.cost[1]) {
+        p.cost[1] = a * p.size * kWidePrimitiveCost;
+        one = Form::kLeaf;
       }
+      choices_[n][0] = pack(one, node_left_slots);
+      for (u32 slots = 2; slots <= kWideBvhWidth; ++slots) {
+        const auto [split_cost, k] = shared(l, r, slots);
+        if (split_cost < p.cost[slots - 1]) {
+          p.cost[slots] = split_cost;
+          choices_[n][slots - 1] = pack(Form::kShared, k);
+        } else {
+          p.cost[slots] = p.cost[slots - 1];
+          choices_[n][slots - 1] = pack(Form::kFewerSlots, 0);
+        }
+      }
+      waiting.push_back(p);
     }
   }
 
   // The subtrees that become children of one wide node when subtree n gets `slots` of its slots.
   void gather(u32 n, u32 slots, std::vector<u32>& children) const {
-    const Choice& c = choices_[n][slots];
-    switch (c.form) {
+    switch (form(n, slots)) {
       case Form::kFewerSlots: return gather(n, slots - 1, children);
-      case Form::kShared:
-        gather(left(n), c.left_slots, children);
-        gather(right(n), slots - c.left_slots, children);
+      case Form::kShared: {
+        const u32 k = left_slots(n, slots);
+        gather(left(n), k, children);
+        gather(right(n), slots - k, children);
         return;
+      }
       default: children.push_back(n);
     }
+  }
+  // The children of the wide node made for binary interior node n.
+  std::vector<u32> wide_children(u32 n) const {
+    std::vector<u32> children;
+    const u32 k = left_slots(n, 1);
+    gather(left(n), k, children);
+    gather(right(n), kWideBvhWidth - k, children);
+    return children;
+  }
+
+  // How many wide nodes emit(n) makes (so that the result is allocated once).
+  std::size_t count_nodes(u32 n) const {
+    std::size_t total = 1;
+    for (const u32 m : wide_children(n))
+      if (form(m, 1) != Form::kLeaf) total += count_nodes(m);
+    return total;
   }
 
   // Emits the wide node for binary interior node n; returns its position.
   u32 emit(u32 n) {
-    std::vector<u32> children;
-    const Choice split = shared(n, kWideBvhWidth);
-    gather(left(n), split.left_slots, children);
-    gather(right(n), kWideBvhWidth - split.left_slots, children);
+    const std::vector<u32> children = wide_children(n);
     const u32 slot = add_node();
     for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
       const u32 m = children[lane < children.size() ? lane : 0];
-      set_child(slot, lane, m, first_[m], size_[m]);
+      set_child(slot, lane, m, first(m), size(m));
     }
     for (u32 lane = 0; lane < children.size(); ++lane) {
       const u32 m = children[lane];
-      if (choices_[m][1].form == Form::kLeaf) {
+      if (form(m, 1) == Form::kLeaf) {
         wide_[slot].leaf_mask |= 1u << lane;
         continue;
       }
@@ -511,9 +581,9 @@ class WideBvhBuilder {
     return slot;
   }
 
-  const std::vector<BvhNode<double>>& binary_;
+  const std::vector<BvhNode<S>>& binary_;
+  double scale_;
   std::vector<Choices> choices_;
-  std::vector<u32> first_, size_;
   std::vector<WideBvhNode<T>> wide_;
 };
 
@@ -588,15 +658,32 @@ struct MeshPlacementUse {
   u32 object;
 };
 
-// A mesh as the kernels will store it, still in double: vertices, triangles (local vertex indices, scene materials)
-// in BVH order, and its BVH over them.
+// A mesh as the kernels will store it, before conversion to their scalar type: triangles (local vertex indices,
+// scene materials) in BVH order and its BVH over them. Vertices, normals and texture coordinates are not copied:
+// they are read from the file's mesh, mapped by `placed`, when converted.
 struct MeshBuild {
   u32 object;        // the first object placing it, for messages
   std::string name;  // the file's name for it
-  std::vector<Vec3d> positions, normals;
-  std::vector<std::array<double, 2>> uvs;
+  const TriangleMesh* source = nullptr;
+  AffineTransform placed;  // mesh space to the space the mesh is stored in (the identity for a shared mesh)
+  bool identity = true;    // placed is the identity
+  bool has_normals = false, has_uvs = false;
+  double scale = 1;  // flatten_scene's scale, applied to lengths as they are converted
   std::vector<MeshTriangle> triangles;
-  BuiltBvh bvh;
+  // Float boxes where the mesh's coordinates fit float (half the memory of double; exact corners for float
+  // vertices, rounded outward otherwise), double boxes beyond.
+  std::variant<BuiltBvh<float>, BuiltBvh<double>> bvh;
+
+  Vec3d position(u32 v) const { return identity ? source->positions[v] : placed.apply_point(source->positions[v]); }
+  Vec3d normal(u32 v) const {
+    const Vec3d turned = identity ? source->normals[v] : placed.apply_normal(source->normals[v]);
+    const double length_squared_n = length_squared(turned);
+    return length_squared_n > 0 ? turned / std::sqrt(length_squared_n) : Vec3d{0, 0, 0};
+  }
+  // The root's box, in double, before scaling.
+  Aabb root() const {
+    return std::visit([](const auto& b) { return scaled_box(b.nodes[0], 1); }, bvh);
+  }
 };
 
 // The mesh with its vertices mapped by `placed` (the identity for a shared mesh, kept in its own space), triangles
@@ -607,28 +694,35 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
   MeshBuild out;
   out.object = use.object;
   out.name = mesh.name;
-  const bool identity = placed.is_identity();
-  out.positions.reserve(mesh.positions.size());
-  for (const Vec3d& p : mesh.positions) out.positions.push_back(identity ? p : placed.apply_point(p));
-  if (mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty()) {
-    out.normals.reserve(mesh.normals.size());
-    for (const Vec3d& n : mesh.normals) {
-      const Vec3d turned = identity ? n : placed.apply_normal(n);
-      const double length_squared_n = length_squared(turned);
-      out.normals.push_back(length_squared_n > 0 ? turned / std::sqrt(length_squared_n) : Vec3d{0, 0, 0});
-    }
+  out.source = &mesh;
+  out.placed = placed;
+  out.identity = placed.is_identity();
+  out.has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+  out.has_uvs = mesh.uvs.size() == mesh.positions.size() && !mesh.uvs.empty();
+  // The mapped vertices, for the build only (freed when it returns).
+  std::vector<Vec3d> mapped;
+  if (!out.identity) {
+    mapped.reserve(mesh.positions.size());
+    for (const Vec3d& p : mesh.positions) mapped.push_back(placed.apply_point(p));
   }
-  if (mesh.uvs.size() == mesh.positions.size()) out.uvs = mesh.uvs;
+  const std::vector<Vec3d>& positions = out.identity ? mesh.positions : mapped;
+  double largest_coordinate = 0;
+  for (const Vec3d& p : positions) largest_coordinate = std::max({largest_coordinate, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const bool float_boxes = float_box_fits(largest_coordinate);
   // A mirroring map turns the winding around: swap two vertices so that the front stays the front.
   const bool mirrored = placed.determinant() < 0;
+  std::vector<FloatBox> float_bounds;
   std::vector<Aabb> bounds;
   out.triangles.reserve(mesh.triangles.size());
-  bounds.reserve(mesh.triangles.size());
+  if (float_boxes)
+    float_bounds.reserve(mesh.triangles.size());
+  else
+    bounds.reserve(mesh.triangles.size());
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const std::array<u32, 3>& v = mesh.triangles[t];
-    const Vec3d& a = out.positions[v[0]];
-    const Vec3d& b = out.positions[v[1]];
-    const Vec3d& c = out.positions[v[2]];
+    const Vec3d& a = positions[v[0]];
+    const Vec3d& b = positions[v[1]];
+    const Vec3d& c = positions[v[2]];
     if (length_squared(cross(b - a, c - a)) == 0) continue;
     const u32 file_material = mesh.materials.empty() ? 0 : mesh.materials[t];
     const u32 material = file_material < entry.materials.size() ? entry.materials[file_material] : entry.materials.at(0);
@@ -637,76 +731,134 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
     box.grow(a);
     box.grow(b);
     box.grow(c);
-    bounds.push_back(box);
+    if (float_boxes)
+      float_bounds.push_back(outward_float_box(box));
+    else
+      bounds.push_back(box);
   }
-  out.bvh = build_bvh(bounds);
-  std::vector<MeshTriangle> ordered;
-  ordered.reserve(out.triangles.size());
-  for (u32 i : out.bvh.order) ordered.push_back(out.triangles[i]);
-  out.triangles = std::move(ordered);
+  std::vector<Vec3d>().swap(mapped);
+  std::vector<u32> order;
+  if (float_boxes) {
+    BuiltBvh<float> built = build_bvh(float_bounds);
+    std::vector<FloatBox>().swap(float_bounds);
+    order = std::move(built.order);
+    out.bvh = std::move(built);
+  } else {
+    BuiltBvh<double> built = build_bvh(bounds);
+    std::vector<Aabb>().swap(bounds);
+    order = std::move(built.order);
+    out.bvh = std::move(built);
+  }
+  {
+    std::vector<MeshTriangle> ordered;
+    ordered.reserve(out.triangles.size());
+    for (u32 i : order) ordered.push_back(out.triangles[i]);
+    out.triangles = std::move(ordered);
+  }
+  std::vector<u32>().swap(order);
+  release_free_memory();  // the boxes, the order and the unordered triangles
   return out;
 }
 
 // The box of a mesh's BVH root mapped by an affine map: the box of its eight mapped corners.
-Aabb mapped_box(const BvhNode<double>& root, const AffineTransform& map) {
+Aabb mapped_box(const Aabb& root, const AffineTransform& map) {
   Aabb box;
   for (int corner = 0; corner < 8; ++corner)
     box.grow(map.apply_point(Vec3d{corner & 1 ? root.hi.x : root.lo.x, corner & 2 ? root.hi.y : root.lo.y, corner & 4 ? root.hi.z : root.lo.z}));
   return box;
 }
 
+// Appends `from` to `to` and frees it; where `to` has no storage yet (one mesh), it takes the array over instead.
+template <class A>
+void append_and_free(A& to, A& from) {
+  if (to.capacity() == 0)
+    to = std::move(from);
+  else
+    to.insert(to.end(), from.begin(), from.end());
+  A().swap(from);
+}
+
 // The meshes' arrays in the kernels' type: vertices checked as lengths (a mesh's extent stands for its triangles'
 // edges), normals and texture coordinates as plain values, the BVHs padded and their indices made global, and the
-// instances' maps with their inverses and the normals' inverse transpose.
+// instances' maps with their inverses and the normals' inverse transpose. Each mesh's own arrays are freed as soon
+// as they are converted, so that the peak of memory stays near the result's size.
 template <class T>
-void flatten_meshes(const Fit<T>& fit, const std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
+void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
                     FlatScene<T>& flat) {
-  std::size_t vertices = 0, triangles = 0, nodes = 0;
+  std::size_t vertices = 0, normals = 0, uvs = 0;
   for (const MeshBuild& m : meshes) {
-    vertices += m.positions.size();
-    triangles += m.triangles.size();
-    nodes += m.bvh.nodes.size();
+    vertices += m.source->positions.size();
+    normals += m.has_normals ? m.source->positions.size() : 0;
+    uvs += m.has_uvs ? m.source->positions.size() : 0;
   }
   flat.mesh_positions.reserve(vertices);
-  flat.mesh_triangles.reserve(triangles);
-  flat.mesh_nodes.reserve(nodes);
-  for (const MeshBuild& m : meshes) {
+  flat.mesh_normals.reserve(normals);
+  flat.mesh_uvs.reserve(uvs);
+  if (meshes.size() > 1) {  // one mesh's arrays are taken over (append_and_free)
+    std::size_t triangles = 0, nodes = 0;
+    for (const MeshBuild& m : meshes) {
+      triangles += m.triangles.size();
+      nodes += std::visit([](const auto& b) { return b.nodes.size(); }, m.bvh);
+    }
+    flat.mesh_triangles.reserve(triangles);
+    flat.mesh_nodes.reserve(nodes);
+  }
+  for (MeshBuild& m : meshes) {
     const std::string where = "/objects/" + std::to_string(m.object) + "/file";
     const std::string vertex = fmt::format("a vertex of mesh '{}'", m.name);
+    const double scale = m.scale;
+    const u32 vertex_count = static_cast<u32>(m.source->positions.size());
     MeshRecord record{};
     record.first_vertex = static_cast<u32>(flat.mesh_positions.size());
-    for (const Vec3d& p : m.positions) flat.mesh_positions.push_back(fit(p, Quantity::kLength, where, vertex));
-    fit(m.bvh.nodes[0].hi - m.bvh.nodes[0].lo, Quantity::kTriangleEdge, where, fmt::format("the extent of mesh '{}', which bounds its edges", m.name));
+    for (u32 v = 0; v < vertex_count; ++v) {
+      Vec3d p = m.position(v);
+      if (scale != 1) p = p * scale;
+      flat.mesh_positions.push_back(fit(p, Quantity::kLength, where, vertex));
+    }
+    const Aabb root = m.root();
+    fit(root.hi * scale - root.lo * scale, Quantity::kTriangleEdge, where, fmt::format("the extent of mesh '{}', which bounds its edges", m.name));
     record.first_normal = kNoAttributes;
-    if (!m.normals.empty()) {
+    if (m.has_normals) {
       record.first_normal = static_cast<u32>(flat.mesh_normals.size());
-      for (const Vec3d& n : m.normals) flat.mesh_normals.push_back(fit(n, Quantity::kPlain, where, "a vertex normal"));
+      for (u32 v = 0; v < vertex_count; ++v) flat.mesh_normals.push_back(fit(m.normal(v), Quantity::kPlain, where, "a vertex normal"));
     }
     record.first_uv = kNoAttributes;
-    if (!m.uvs.empty()) {
+    if (m.has_uvs) {
       record.first_uv = static_cast<u32>(flat.mesh_uvs.size());
-      for (const auto& uv : m.uvs)
+      for (const auto& uv : m.source->uvs)
         flat.mesh_uvs.push_back(MeshUv<T>{fit(uv[0], Quantity::kPlain, where, "a texture coordinate"), fit(uv[1], Quantity::kPlain, where, "a texture coordinate")});
     }
     record.first_triangle = static_cast<u32>(flat.mesh_triangles.size());
     record.triangle_count = static_cast<u32>(m.triangles.size());
-    flat.mesh_triangles.insert(flat.mesh_triangles.end(), m.triangles.begin(), m.triangles.end());
+    append_and_free(flat.mesh_triangles, m.triangles);
     record.root = static_cast<u32>(flat.mesh_nodes.size());
-    for (const BvhNode<double>& n : m.bvh.nodes) {
-      BvhNode<T> out = padded_node<T>(n);
-      out.left_first += n.count > 0 ? record.first_triangle : record.root;
-      flat.mesh_nodes.push_back(out);
-    }
     record.wide_root = static_cast<u32>(flat.mesh_wide_nodes.size());
-    const std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T>(m.bvh.nodes).build();
-    if (flat.mesh_wide_nodes.empty()) flat.mesh_wide_nodes.reserve(wide.size());
-    for (WideBvhNode<T> w : wide) {
-      for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
-        if (w.leaf_mask & (1u << lane)) w.child[lane] += record.first_triangle;
-        if (w.inner_mask & (1u << lane)) w.child[lane] += record.wide_root;
-      }
-      flat.mesh_wide_nodes.push_back(w);
-    }
+    std::visit(
+        [&]<class S>(BuiltBvh<S>& bvh) {
+          // The wide tree first, while the binary nodes are still as built; then the binary nodes, converted in
+          // place where the kernels' nodes are the built ones' type.
+          std::vector<WideBvhNode<T>> wide = WideBvhBuilder<T, S>(bvh.nodes, scale).build();
+          for (WideBvhNode<T>& w : wide)
+            for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
+              if (w.leaf_mask & (1u << lane)) w.child[lane] += record.first_triangle;
+              if (w.inner_mask & (1u << lane)) w.child[lane] += record.wide_root;
+            }
+          append_and_free(flat.mesh_wide_nodes, wide);
+          auto global = [&](const BvhNode<S>& n) {
+            BvhNode<T> out = padded_node<T>(n, scale);
+            out.left_first += n.count > 0 ? record.first_triangle : record.root;
+            return out;
+          };
+          if constexpr (std::is_same_v<S, T>) {
+            for (BvhNode<S>& n : bvh.nodes) n = global(n);
+            append_and_free(flat.mesh_nodes, bvh.nodes);
+          } else {
+            if (flat.mesh_nodes.capacity() == 0) flat.mesh_nodes.reserve(bvh.nodes.size());
+            for (const BvhNode<S>& n : bvh.nodes) flat.mesh_nodes.push_back(global(n));
+            std::vector<BvhNode<S>>().swap(bvh.nodes);
+          }
+        },
+        m.bvh);
     flat.meshes.push_back(record);
   }
   for (std::size_t i = 0; i < maps.size(); ++i) {
@@ -810,7 +962,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       if (uses[key] == 1) {
         instance_mesh[i] = static_cast<u32>(meshes.size());
         meshes.push_back(build_mesh(scene, use, use.transform));
-        instance_bounds[i] = Aabb{meshes.back().bvh.nodes[0].lo, meshes.back().bvh.nodes[0].hi};
+        instance_bounds[i] = meshes.back().root();
         continue;
       }
       auto it = shared.find(key);
@@ -825,7 +977,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       instance_transform[i] = static_cast<u32>(instance_maps.size());
       instance_maps.push_back(use.transform);
       instance_objects.push_back(use.object);
-      instance_bounds[i] = mapped_box(meshes[it->second].bvh.nodes[0], use.transform);
+      instance_bounds[i] = mapped_box(meshes[it->second].root(), use.transform);
     }
   }
 
@@ -871,10 +1023,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     camera.look_at = camera.look_at * scale;
     camera.focus_distance *= scale;
     camera.aperture *= scale;
-    for (MeshBuild& m : meshes) {
-      for (Vec3d& p : m.positions) p = p * scale;
-      for (BvhNode<double>& n : m.bvh.nodes) n.lo = n.lo * scale, n.hi = n.hi * scale;
-    }
+    for (MeshBuild& m : meshes) m.scale = scale;  // applied as the meshes are converted
     for (AffineTransform& a : instance_maps) a.translation = a.translation * scale;
     for (Aabb& b : instance_bounds) b.lo = b.lo * scale, b.hi = b.hi * scale;
     bounds = all_bounds();
@@ -915,12 +1064,12 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   }
 
   const auto bvh_start = std::chrono::steady_clock::now();
-  const BuiltBvh bvh = build_bvh(bounds);
+  const BuiltBvh<double> bvh = build_bvh(bounds);
   try {
   flat.bvh_depth = bvh.depth;
   flat.nodes.reserve(bvh.nodes.size());
   for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
-  flat.wide_nodes = WideBvhBuilder<T>(bvh.nodes).build();
+  flat.wide_nodes = WideBvhBuilder<T, double>(bvh.nodes).build();
   make_perlin_tables(flat);
   flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
   flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();

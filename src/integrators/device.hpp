@@ -28,7 +28,8 @@ struct ImageKernelProbe {
 //  - host(): the device is the host's processor (a launch costs a fork and join of threads, so the megakernel
 //    gives each work item many samples, and the wavefront keeps a pool that fits the caches).
 //  - preferred_integrator(): what `--integrator auto` takes on it, the faster one as measured (BENCHMARKS.md).
-//  - memory_on_host(): its allocations are host memory the program may read directly (no copy back needed).
+//  - memory_on_host(): its allocations are host memory the program may read directly (no copy back needed); the
+//    kernels then read the flat scene's host arrays themselves (DeviceBackend::upload makes no copy).
 //  - times_on_device(): the timers read the device's own clock (events), not the host's wall clock.
 //  - allocate(bytes, what) / release(pointer): device memory, aligned for any kernel struct.
 //  - copy_to_device, clear: ordered after the work queued before; the source must stay alive until the next
