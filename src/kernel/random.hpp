@@ -26,6 +26,7 @@ enum RandomDimension : u32 {
   kDimScatter = 8,  // pair: scattered direction
   kDimScatterChoice = 10,  // reflect or refract
   kDimRoulette = 12,
+  kDimLobe = 14,  // which lobe of a layered material (metallic-roughness: specular or diffuse) draws the direction
   // A medium draws its free-flight distance from dimension kDimMediumBase + its primitive index, so the draw
   // does not depend on the order in which the acceleration structure visits primitives.
   kDimMediumBase = 64,
