@@ -56,6 +56,49 @@ INSTANTIATE_TEST_SUITE_P(Scenes, FloatMatchesDouble,
                          ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "precision"),
                          test::scene_test_name);
 
+// The metallic-roughness material in every form a scene gives it: a metal, a dielectric with an image base colour,
+// a rough metal whose roughness and metallic come from an image (read as linear data), and the smallest roughness (a
+// near mirror) on a quad, under a small light and the sky. Every sample finite, and float the same picture as double.
+SceneDescription metallic_roughness_scene() {
+  return test::parse(R"({
+    "render": {"width": 64, "height": 48, "samples_per_pixel": 128, "max_depth": 8},
+    "camera": {"look_from": [0, 1, 4], "look_at": [0, 0.5, 0], "vertical_fov": 45},
+    "background": {"type": "sky", "horizon": [1, 1, 1], "zenith": [0.5, 0.7, 1.0]},
+    "textures": {"planet": {"type": "image", "file": "textures/planet-1024x512.png"}},
+    "materials": {"ground": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "roughness": 0.8}},
+    "objects": [
+      {"type": "sphere", "center": [0, -100, 0], "radius": 100, "material": "ground"},
+      {"type": "sphere", "center": [-1.2, 0.5, 0], "radius": 0.5, "material": {"type": "metallic_roughness", "base_color": [0.95, 0.64, 0.54], "metallic": 1, "roughness": 0.3}},
+      {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": {"type": "metallic_roughness", "texture": "planet", "roughness": 0.2}},
+      {"type": "sphere", "center": [1.2, 0.5, 0], "radius": 0.5, "material": {"type": "metallic_roughness", "base_color": [0.9, 0.9, 0.9], "metallic": 1, "roughness": 1, "metallic_roughness_texture": "planet"}},
+      {"type": "quad", "corner": [-1.8, 0, -1.5], "u": [3.6, 0, 0], "v": [0, 1.8, 0], "material": {"type": "metallic_roughness", "base_color": [0.8, 0.8, 0.8], "metallic": 1, "roughness": 0}},
+      {"type": "sphere", "center": [0.6, 1.35, 0.6], "radius": 0.15, "material": {"type": "diffuse_light", "emission": [6, 5, 4]}}
+    ]
+  })");
+}
+
+void expect_metallic_roughness_float_matches_double(const std::string& float_backend) {
+  const SceneDescription scene = metallic_roughness_scene();
+  ASSERT_TRUE(std::holds_alternative<MetallicRoughness<double>>(scene.materials[0]));
+  const SceneCase c{"metallic-roughness", 64, 48, 128, 0, 0};
+  const test::PixelStatistics f = statistics_on<float>(float_backend, flatten_scene<float>(scene, case_settings(scene, c, c.samples, 707)));
+  const test::PixelStatistics d = statistics_on<double>("cpu", flatten_scene<double>(scene, case_settings(scene, c, c.samples, 808)));
+  EXPECT_EQ(f.non_finite, 0u);
+  EXPECT_EQ(d.non_finite, 0u);
+  expect_blocks_agree(f, d, "float", "double", "metallic-roughness spheres (float on " + float_backend + ")");
+}
+
+TEST(MetallicRoughnessRender, FiniteAndFloatMatchesDouble) { expect_metallic_roughness_float_matches_double("cpu"); }
+
+TEST(MetallicRoughnessRender, CudaFiniteAndMatchesCpuDouble) {
+#if !PT_HAVE_CUDA
+  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
+#else
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  expect_metallic_roughness_float_matches_double("cuda");
+#endif
+}
+
 // Scale invariance: float keeps the same relative precision at every magnitude, and with rays spawned robustly the
 // picture does not depend on where the scene is. Moved 10^4 away from the origin (float's spacing there, 1e-3, is
 // far below the scenes' detail) or with every length multiplied by 10^3, a scene must render as the original does

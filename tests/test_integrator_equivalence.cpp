@@ -61,6 +61,21 @@ TEST_P(IntegratorEquivalence, WavefrontEqualsMegakernelBitwiseInDouble) {
   EXPECT_EQ(0, std::memcmp(mega.image.rgb.data(), wave.image.rgb.data(), mega.image.rgb.size() * sizeof(float)));
 }
 
+// A glTF model rendered directly: its materials are metallic-roughness ones (a material class no shipped scene has),
+// which the wavefront shades in a queue of their own.
+TEST(IntegratorEquivalenceOfModels, WavefrontEqualsMegakernelBitwiseWithMetallicRoughnessMaterials) {
+  const SceneDescription description = load_scene_file(test::scene_path("models/pedestal.gltf"));
+  bool metallic_roughness = false;
+  for (const Material<double>& m : description.materials) metallic_roughness |= std::holds_alternative<MetallicRoughness<double>>(m);
+  ASSERT_TRUE(metallic_roughness);
+  const RenderSettings settings = small_settings(description);
+  const RenderResult mega = render<float>("cpu", Integrator::kMegakernel, description, settings);
+  const RenderResult wave = render<float>("cpu", Integrator::kWavefront, description, settings);
+  ASSERT_EQ(mega.image.rgb.size(), wave.image.rgb.size());
+  EXPECT_EQ(0, std::memcmp(mega.image.rgb.data(), wave.image.rgb.data(), mega.image.rgb.size() * sizeof(float)));
+  EXPECT_EQ(mega.stats.rays, wave.stats.rays);
+}
+
 // `auto` is decided by the device: the megakernel on the host's processor, the wavefront on a GPU.
 TEST(IntegratorChoice, AutoTakesTheMegakernelOnTheHostAndTheWavefrontOnAGpu) {
   EXPECT_NE(make_backend<float>("cpu", 1, 0, Integrator::kAuto)->name().find("megakernel"), std::string::npos);

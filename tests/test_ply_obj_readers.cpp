@@ -650,6 +650,28 @@ TEST(ObjReader, MaterialsMapOntoBaseColourEmissionAndRoughness) {
   EXPECT_TRUE(has_warning(file, "some faces have texture coordinates and some not")) << all_warnings(file);
 }
 
+TEST(ObjReader, SpecularAndPbrStatementsChooseTheMetallicRoughnessModel) {
+  // Kd alone: diffuse, as before. Pr or Pm: the metallic-roughness model with those values. Ks above 0 without them:
+  // a dielectric whose roughness follows Ns (alpha = sqrt(2 / (Ns + 2)), roughness = sqrt(alpha)), warned of.
+  test::TempDir dir;
+  test::write_text_file(dir / "s.mtl",
+                        "newmtl matte\nKd 0.5 0.5 0.5\nKs 0 0 0\nNs 50\n\n"
+                        "newmtl shiny\nKd 0.5 0.5 0.5\nKs 0.5 0.5 0.5\nNs 98\n\n"
+                        "newmtl metal\nKd 0.9 0.6 0.3\nPm 1\nPr 0.3\nKs 1 1 1\nNs 5\n");
+  test::write_text_file(dir / "s.obj", "mtllib s.mtl\n" + kTriangleObj + "usemtl matte\nf 1 2 3\nusemtl shiny\nf 1 3 4\nusemtl metal\nf 2 3 4\n");
+  const MeshFile file = read_obj_file(dir / "s.obj");
+  ASSERT_EQ(file.materials.size(), 3u);
+  EXPECT_FALSE(file.materials[0].metallic_roughness_model);
+  EXPECT_TRUE(file.materials[1].metallic_roughness_model);
+  EXPECT_EQ(file.materials[1].metallic, 0.0);
+  EXPECT_NEAR(file.materials[1].roughness, std::sqrt(std::sqrt(0.02)), 1e-6);
+  EXPECT_TRUE(file.materials[2].metallic_roughness_model);
+  EXPECT_EQ(file.materials[2].metallic, 1.0);
+  EXPECT_NEAR(file.materials[2].roughness, 0.3, 1e-6);  // Pr wins over Ns
+  EXPECT_TRUE(has_warning(file, "specular highlights (Ks) take a dielectric's reflectance (F0 = 0.04), not the colour Ks gives (material 'shiny')"))
+      << all_warnings(file);
+}
+
 TEST(ObjReader, CornersAreUnifiedAcrossPositionNormalAndUvIndices) {
   test::TempDir dir;
   // Two groups: a square with one normal (4 vertices), then a triangle reusing positions with other normals.

@@ -166,6 +166,7 @@ Texture<T> fit_texture(const Fit<T>& fit, const Texture<double>& texture, const 
     Texture<T> operator()(const ImageTexture<double>& t) const {
       ImageTexture<T> out{t.width, t.height, t.offset, fit(t.repeat, Quantity::kPlain, at + "/repeat"), {}};
       out.factor = fit(t.factor, Quantity::kColour, at, "the colour factor");
+      out.linear = t.linear;
       return out;
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
@@ -189,6 +190,7 @@ Material<T> fit_material(const Fit<T>& fit, const Material<double>& material, co
     }
     Material<T> operator()(const DiffuseLight<double>& m) const { return DiffuseLight<T>{m.texture}; }
     Material<T> operator()(const Isotropic<double>& m) const { return Isotropic<T>{m.texture}; }
+    Material<T> operator()(const MetallicRoughness<double>& m) const { return MetallicRoughness<T>{m.base_color, m.metallic_roughness}; }
   };
   return visit(Convert{fit, at}, material);
 }

@@ -73,7 +73,7 @@ PT_HD inline void sample_next_event(const SceneView<T>& scene, PathState<T>& pat
                                     const BounceRandom& random, ShadowRay<T>& shadow) {
   LightSample<T> light;
   if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
-  const ScatterValue<T> value = material_evaluate(material, at, light.direction, scene.textures, scene.texture_data);
+  const ScatterValue<T> value = material_evaluate(material, at, -path.ray.direction, light.direction, scene.textures, scene.texture_data);
   if (!(value.pdf > T(0))) return;
   shadow.ray = spawn_ray(at, light.direction, path.ray.time);
   shadow.weight = path.throughput * value.value;

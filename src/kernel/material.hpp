@@ -3,6 +3,7 @@
 
 #include <variant>
 
+#include "kernel/microfacet.hpp"
 #include "kernel/random.hpp"
 #include "kernel/texture.hpp"
 
@@ -13,9 +14,14 @@ template <class T> struct Metal { Color<T> albedo; T fuzz; };
 template <class T> struct Dielectric { T ior; Color<T> tint; };
 template <class T> struct DiffuseLight { u32 texture; };
 template <class T> struct Isotropic { u32 texture; };
+// glTF 2.0's metallic-roughness material (kernel/microfacet.hpp). Both are texture indices, so that constants and
+// maps take one path: `base_color` gives the base colour; `metallic_roughness` gives roughness in its green channel
+// and metallic in its blue one (glTF's layout), its factors folded in (a solid colour (0, roughness, metallic), or
+// an image whose factor is (1, roughness factor, metallic factor)).
+template <class T> struct MetallicRoughness { u32 base_color; u32 metallic_roughness; };
 
 template <class T>
-using Material = std::variant<Lambertian<T>, Metal<T>, Dielectric<T>, DiffuseLight<T>, Isotropic<T>>;
+using Material = std::variant<Lambertian<T>, Metal<T>, Dielectric<T>, DiffuseLight<T>, Isotropic<T>, MetallicRoughness<T>>;
 
 // Where a ray met a surface (or a scattering point in a medium).
 template <class T>
@@ -68,6 +74,16 @@ PT_HD inline T schlick_reflectance(T cosine, T eta) {
   const T m = T(1) - cosine;
   const T m2 = m * m;
   return r0 + (T(1) - r0) * (m2 * m2 * m);
+}
+
+// The metallic-roughness parameters at a surface point: its textures looked up. (Light sampling evaluates the BSDF
+// with these, in the frame frame_from_normal(at.normal), as scattering does.)
+template <class T>
+PT_HD inline MetallicRoughnessParams<T> metallic_roughness_params(const MetallicRoughness<T>& m, const SurfacePoint<T>& at, const Texture<T>* textures,
+                                                                  const TextureData<T>& data) {
+  const TexturePoint<T> point{at.u, at.v, at.p};
+  const Color<T> metallic_roughness = texture_value(textures[m.metallic_roughness], point, data);
+  return MetallicRoughnessParams<T>{texture_value(textures[m.base_color], point, data), metallic_roughness.z, metallic_roughness.y};
 }
 
 // Samples the next direction. Returns false when the material absorbs the ray (or only emits).
@@ -123,6 +139,17 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       out = {albedo(m.texture), spawn_ray(at, random_direction(), in.time), T(1) / (constant<T>(4) * pi<T>())};
       return true;
     }
+    PT_HD bool operator()(const MetallicRoughness<T>& m) const {
+      // Two-sided: the normal faces the incoming ray, so wo is above the local surface.
+      const ShadingFrame<T> frame = frame_from_normal(at.normal);
+      T u1, u2;
+      random.uniform_pair(kDimScatter, u1, u2);
+      const BsdfSample<T> s = sample_metallic_roughness(metallic_roughness_params(m, at, textures, data), frame.to_local(-in.direction),
+                                                        random.template uniform<T>(kDimLobe), u1, u2);
+      if (!s.valid) return false;
+      out = {s.weight, spawn_ray(at, frame.to_world(s.wi), in.time), s.pdf};
+      return true;
+    }
   };
   return visit(Sample{in, at, textures, data, random, out}, material);
 }
@@ -131,13 +158,15 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
 // ray towards a light is worth tracing from it.
 template <class T>
 PT_HD inline bool material_samples_lights(const Material<T>& material) {
-  return std::holds_alternative<Lambertian<T>>(material) || std::holds_alternative<Isotropic<T>>(material);
+  return std::holds_alternative<Lambertian<T>>(material) || std::holds_alternative<Isotropic<T>>(material) ||
+         std::holds_alternative<MetallicRoughness<T>>(material);
 }
 
-// The scattering towards `wi` (unit, leaving the point) of a material for which material_samples_lights holds, and
-// the density material_scatter gives that direction; zero for the others.
+// The scattering of light arriving along `wi` towards `wo` (both unit, leaving the point; wo back along the incoming
+// ray) of a material for which material_samples_lights holds, and the density material_scatter gives wi; zero for the
+// others.
 template <class T>
-PT_HD inline ScatterValue<T> material_evaluate(const Material<T>& material, const SurfacePoint<T>& at, const Vec3<T>& wi,
+PT_HD inline ScatterValue<T> material_evaluate(const Material<T>& material, const SurfacePoint<T>& at, const Vec3<T>& wo, const Vec3<T>& wi,
                                                const Texture<T>* textures, const TextureData<T>& data) {
   if (const auto* m = std::get_if<Lambertian<T>>(&material)) {
     const T cosine = dot(wi, at.normal);
@@ -148,6 +177,11 @@ PT_HD inline ScatterValue<T> material_evaluate(const Material<T>& material, cons
   if (const auto* m = std::get_if<Isotropic<T>>(&material)) {
     const T pdf = T(1) / (constant<T>(4) * pi<T>());
     return ScatterValue<T>{texture_value(textures[m->texture], TexturePoint<T>{at.u, at.v, at.p}, data) * pdf, pdf};
+  }
+  if (const auto* m = std::get_if<MetallicRoughness<T>>(&material)) {
+    const ShadingFrame<T> frame = frame_from_normal(at.normal);
+    const BsdfEval<T> e = evaluate_metallic_roughness(metallic_roughness_params(*m, at, textures, data), frame.to_local(wo), frame.to_local(wi));
+    return ScatterValue<T>{e.f_cos, e.pdf};
   }
   return ScatterValue<T>{Color<T>{}, T(0)};
 }
@@ -169,6 +203,9 @@ PT_HD inline bool material_needs_uv(const Material<T>& material, const Texture<T
     PT_HD bool operator()(const Dielectric<T>&) const { return false; }
     PT_HD bool operator()(const DiffuseLight<T>& m) const { return texture_needs_uv(textures[m.texture]); }
     PT_HD bool operator()(const Isotropic<T>& m) const { return texture_needs_uv(textures[m.texture]); }
+    PT_HD bool operator()(const MetallicRoughness<T>& m) const {
+      return texture_needs_uv(textures[m.base_color]) || texture_needs_uv(textures[m.metallic_roughness]);
+    }
   };
   return visit(NeedsUv{textures}, material);
 }

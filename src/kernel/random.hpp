@@ -26,6 +26,7 @@ enum RandomDimension : u32 {
   kDimScatter = 8,  // pair: scattered direction
   kDimScatterChoice = 10,  // reflect or refract
   kDimRoulette = 12,
+  kDimLobe = 14,  // which lobe of a layered material (metallic-roughness: specular or diffuse) draws the direction
   kDimLightChoice = 20,    // next-event estimation: the light's index (its bits) ...
   kDimLightAlias = 21,     // ... the alias table's choice between the entry and its alias
   kDimLightPoint = 22,     // pair: the point on the light (or the direction towards it)

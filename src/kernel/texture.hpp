@@ -18,8 +18,9 @@ template <class T> struct CheckerTexture { Color<T> odd, even; T cells_per_unit;
 template <class T> struct UvCheckerTexture { Color<T> odd, even; T columns, rows; };
 
 // An image in the scene's shared texel buffer, starting at texel `offset`, times a colour factor (glTF's base colour
-// and emissive factors; 1 for a scene's own image textures).
-template <class T> struct ImageTexture { u32 width, height, offset; T repeat; Color<T> factor; };
+// and emissive factors; 1 for a scene's own image textures). `linear`: the bytes are data read as they are, byte / 255
+// (glTF's metallic-roughness maps), rather than sRGB-encoded colours.
+template <class T> struct ImageTexture { u32 width, height, offset; T repeat; Color<T> factor; u32 linear = 0; };
 
 enum class NoiseKind : u32 { kPerlin = 0, kTurbulence = 1, kMarble = 2 };
 template <class T> struct NoiseTexture { T scale; NoiseKind kind; u32 turbulence_depth; };
@@ -106,6 +107,7 @@ PT_HD inline Color<T> image_lookup(const TextureData<T>& data, const ImageTextur
   const i32 y0 = wrap(static_cast<i32>(y0f), h), y1 = wrap(static_cast<i32>(y0f) + 1, h);
   auto texel = [&](i32 px, i32 py) {
     const u8* t = data.texels + 3u * (image.offset + static_cast<u32>(py) * image.width + static_cast<u32>(px));
+    if (image.linear) return Color<T>{T(t[0]), T(t[1]), T(t[2])} * constant<T>(1.0 / 255.0);
     return Color<T>{T(data.srgb_decode[t[0]]), T(data.srgb_decode[t[1]]), T(data.srgb_decode[t[2]])};
   };
   const Color<T> top = lerp(texel(x0, y0), texel(x1, y0), fx);

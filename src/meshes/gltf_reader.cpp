@@ -373,6 +373,7 @@ class Converter {
     material.base_color = {1, 1, 1};
     material.metallic = 1;
     material.roughness = 1;
+    material.metallic_roughness_model = true;
     return material;
   }
 
@@ -545,6 +546,7 @@ class Converter {
     else out.base_color = {1, 1, 1};
     out.metallic = pbr.metallicFactor;
     out.roughness = pbr.roughnessFactor;
+    out.metallic_roughness_model = true;
     double strength = 1;
     const auto extension = material.extensions.find("KHR_materials_emissive_strength");
     if (extension != material.extensions.end() && extension->second.Has("emissiveStrength"))
@@ -558,7 +560,7 @@ class Converter {
                                 "their alpha ignored",
                                 path, out.name));
     if (pbr.metallicRoughnessTexture.index >= 0)
-      warn("metallic roughness texture", "metallic-roughness textures are not applied: their materials' metallic and roughness factors are used alone");
+      out.metallic_roughness_texture = texture(pbr.metallicRoughnessTexture.index, path + "/pbrMetallicRoughness/metallicRoughnessTexture");
     if (material.normalTexture.index >= 0) warn("normal texture", "normal textures are not applied: surfaces are shaded with their vertex normals");
     return out;
   }

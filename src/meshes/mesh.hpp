@@ -15,7 +15,7 @@
 namespace pt {
 
 // What a model file says about a surface, in the terms every format shares (glTF's metallic-roughness model; OBJ's
-// Kd/Ke/map_Kd map onto it). Colours are linear RGB; a factor multiplies its texture where there is one.
+// Kd/Ke/map_Kd/Pm/Pr/Ks/Ns map onto it). Colours are linear RGB; a factor multiplies its texture where there is one.
 struct MeshMaterial {
   std::string name;
   Vec3d base_color{0.8, 0.8, 0.8};
@@ -23,6 +23,11 @@ struct MeshMaterial {
   Vec3d emission{0, 0, 0};      // emitted radiance
   i32 emission_texture = -1;
   double metallic = 0, roughness = 1;
+  i32 metallic_roughness_texture = -1;  // glTF's: roughness in green, metallic in blue, linear bytes; or -1
+  // Whether the surface is shaded with the metallic-roughness model (glTF always; OBJ where its MTL says anything
+  // about metal, roughness or specular highlights), or as a plain diffuse reflector of the base colour (files that
+  // only give a colour: PLY, OBJ with Kd alone), as they were before the model existed.
+  bool metallic_roughness_model = false;
 };
 
 // One indexed triangle mesh. A vertex is one index into every per-vertex array (formats that index positions,

@@ -692,6 +692,17 @@ class ObjReader {
     };
     if (source.has_pm) material.metallic = factor(from.metallic, "Pm", 0);
     if (source.has_pr) material.roughness = factor(from.roughness, "Pr", 1);
+    // The metallic-roughness model where the MTL asks for more than a diffuse colour: PBR statements (Pm, Pr), or
+    // specular highlights (Ks above zero). Ks's colour has no place in the model: such a material is a dielectric
+    // (metallic 0, F0 = 0.04) unless Pm says otherwise. Without Pr its roughness comes from the Phong exponent Ns
+    // by Walter et al. 2007's correspondence of Phong and microfacet lobes, alpha = sqrt(2 / (Ns + 2)), and glTF's
+    // alpha = roughness^2. Materials with neither stay diffuse, as they were.
+    const bool specular = from.specular[0] > 0 || from.specular[1] > 0 || from.specular[2] > 0;
+    material.metallic_roughness_model = source.has_pm || source.has_pr || specular;
+    if (specular && !source.has_pr) {
+      const double ns = std::isfinite(from.shininess) ? std::max(0.0, static_cast<double>(from.shininess)) : 0.0;
+      material.roughness = std::sqrt(std::sqrt(2.0 / (ns + 2.0)));
+    }
     material.base_color_texture = texture(from.diffuse_texname, from.diffuse_texopt, "map_Kd", source, where, unrendered, from.name);
     material.emission_texture = texture(from.emissive_texname, from.emissive_texopt, "map_Ke", source, where, unrendered, from.name);
 
@@ -699,8 +710,9 @@ class ObjReader {
       unrendered["bump, normal and displacement maps are not rendered"].push_back(from.name);
     if (from.dissolve < 1 || !from.alpha_texname.empty()) unrendered["transparency (d, Tr, map_d) is not rendered"].push_back(from.name);
     if (!from.roughness_texname.empty() || !from.metallic_texname.empty()) unrendered["roughness and metallic textures (map_Pr, map_Pm) are not rendered"].push_back(from.name);
-    if (from.specular[0] > 0 || from.specular[1] > 0 || from.specular[2] > 0 || !from.specular_texname.empty())
-      unrendered["specular highlights (Ks, map_Ks) are not rendered"].push_back(from.name);
+    if (!from.specular_texname.empty()) unrendered["specular maps (map_Ks) are not rendered"].push_back(from.name);
+    if (specular && !source.has_pm)
+      unrendered["specular highlights (Ks) take a dielectric's reflectance (F0 = 0.04), not the colour Ks gives"].push_back(from.name);
     return material;
   }
 

@@ -439,7 +439,29 @@ class SceneReader {
       n.allow_keys({"type", "albedo", "texture"});
       return add_material(Isotropic<double>{read_colour_or_texture(n, "albedo")}, n.pointer());
     }
-    n.child("type").fail(fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light or isotropic)", type));
+    if (type == "metallic_roughness") {
+      n.allow_keys({"type", "base_color", "texture", "metallic", "roughness", "metallic_roughness_texture"});
+      const u32 base = read_colour_or_texture(n, "base_color");
+      const double metallic = n.has("metallic") ? n.child("metallic").number_in(0, 1) : 0.0;
+      const double roughness = n.has("roughness") ? n.child("roughness").number_in(0, 1) : 0.5;
+      u32 factors;
+      if (n.has("metallic_roughness_texture")) {
+        // glTF's layout: roughness in green, metallic in blue, the bytes read as linear data, times the factors.
+        const Node map = n.child("metallic_roughness_texture");
+        const u32 texture = read_texture_reference(map);
+        const auto* image = std::get_if<ImageTexture<double>>(&scene_.textures[texture]);
+        if (!image) map.fail("a metallic-roughness texture must be an image (roughness in its green channel, metallic in its blue one)");
+        ImageTexture<double> data = *image;
+        data.linear = 1;
+        data.factor = {1, roughness, metallic};
+        factors = add_texture(data, map.pointer());
+      } else {
+        factors = add_texture(SolidTexture<double>{{0, roughness, metallic}}, n.pointer());
+      }
+      return add_material(MetallicRoughness<double>{base, factors}, n.pointer());
+    }
+    n.child("type").fail(
+        fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light, isotropic or metallic_roughness)", type));
   }
 
   u32 read_material_reference(const Node& n) {
@@ -623,11 +645,24 @@ u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file,
     scene.written.textures.push_back(pointer);
     return static_cast<u32>(scene.textures.size() - 1);
   };
+  // A metallic-roughness texture: the file's image read as linear data (green roughness, blue metallic), times the
+  // factors; without an image, the factors as a solid colour.
+  auto metallic_roughness = [&](const MeshMaterial& m) {
+    const Vec3d factors{0, std::clamp(m.roughness, 0.0, 1.0), std::clamp(m.metallic, 0.0, 1.0)};
+    const i32 texture = m.metallic_roughness_texture;
+    if (texture < 0 || static_cast<std::size_t>(texture) >= file->textures.size()) return colour(factors, -1);
+    const u32 index = colour(Vec3d{1, factors.y, factors.z}, texture);
+    std::get<ImageTexture<double>>(scene.textures[index]).linear = 1;
+    return index;
+  };
   for (const MeshMaterial& m : file->materials) {
-    // Emissive surfaces become lights (which do not also reflect); the others diffuse reflectors of the base colour.
+    // Emissive surfaces become lights (which do not also reflect); the others reflect by the metallic-roughness
+    // model, or diffusely where the file gives only a colour (MeshMaterial::metallic_roughness_model).
     const bool emits = m.emission_texture >= 0 || m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0;
     if (emits)
       scene.materials.push_back(DiffuseLight<double>{colour(m.emission, m.emission_texture)});
+    else if (m.metallic_roughness_model)
+      scene.materials.push_back(MetallicRoughness<double>{colour(m.base_color, m.base_color_texture), metallic_roughness(m)});
     else
       scene.materials.push_back(Lambertian<double>{colour(m.base_color, m.base_color_texture)});
     scene.written.materials.push_back(pointer);
