@@ -2,15 +2,11 @@
 // an accelerator), the camera, the background and the render's parameters.
 #pragma once
 
+#include "kernel/background.hpp"
 #include "kernel/bvh.hpp"
 #include "kernel/camera.hpp"
 
 namespace pt {
-
-template <class T>
-struct Background {
-  Color<T> horizon, zenith;  // equal colours give a constant background
-};
 
 template <class T>
 struct RenderParams {
@@ -32,14 +28,8 @@ struct SceneView {
   const Texture<T>* textures;
   TextureData<T> texture_data;
   Camera<T> camera;
-  Background<T> background;
+  Background<T> background;  // with its environment image's arrays, when it has one
   RenderParams<T> params;
 };
-
-template <class T>
-PT_HD inline Color<T> background_radiance(const Background<T>& background, const Vec3<T>& direction) {
-  const T a = constant<T>(0.5) * (direction.y + T(1));
-  return lerp(background.horizon, background.zenith, a);
-}
 
 }  // namespace pt
