@@ -1,5 +1,9 @@
 // Environment lighting: the background's sampling density against the sampled directions (chi-square) and against
 // its image, its integral, rotation and strength, what an escaped ray sees, and renders under an environment image.
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -376,6 +380,39 @@ TEST(Environment, MeanRadianceIsTheSolidAngleWeightedTexelMean) {
     for (u32 column = 0; column < kWidth; ++column)
       expected += 2 * sun.rgb[3 * (row * kWidth + column)] * (std::cos(kPi * row / kHeight) - std::cos(kPi * (row + 1) / kHeight)) / (2.0 * kWidth);
   EXPECT_NEAR(background_mean_radiance(scene_with<double>(sun)).x, expected, 1e-9 * expected);
+}
+
+// The other formats an environment image may come in: Radiance .hdr (RGBE, read by stb_image) and a grey OpenEXR
+// image (one Y channel), each told by its first bytes, not its name.
+TEST(Environment, RadianceHdrAndGreyExrAreRead) {
+  test::TempDir dir;
+  // 4x2 texels, flat (not run-length encoded) RGBE: mantissa * 2^(exponent - 136).
+  std::string hdr = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n";
+  const unsigned char texels[8][4] = {{128, 128, 128, 129}, {128, 0, 0, 128}, {192, 64, 128, 130}, {0, 0, 0, 0},
+                                      {128, 128, 128, 136}, {255, 128, 1, 129}, {128, 128, 128, 129}, {128, 128, 128, 129}};
+  for (const auto& t : texels) hdr.append(reinterpret_cast<const char*>(t), 4);
+  test::write_text_file(dir / "sky.pic", hdr);
+  const LinearImage radiance = read_environment_image(dir / "sky.pic");
+  ASSERT_EQ(radiance.width, 4u);
+  ASSERT_EQ(radiance.height, 2u);
+  const std::vector<float> expected_radiance = {1, 1, 1, 0.5f, 0, 0, 3, 1, 2, 0, 0, 0, 128, 128, 128, 255 / 128.0f, 1, 1 / 128.0f, 1, 1, 1, 1, 1, 1};
+  EXPECT_EQ(radiance.rgb, expected_radiance);
+
+  Imf::Header header(3, 2);
+  header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+  const float grey[6] = {0.25f, 1, 2, 4, 8, 1000};
+  {
+    Imf::OutputFile out((dir / "grey.hdr").c_str(), header);  // an EXR, whatever its name says
+    Imf::FrameBuffer frame;
+    frame.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(grey)), sizeof(float), 3 * sizeof(float)));
+    out.setFrameBuffer(frame);
+    out.writePixels(2);
+  }
+  const LinearImage exr = read_environment_image(dir / "grey.hdr");
+  ASSERT_EQ(exr.width, 3u);
+  ASSERT_EQ(exr.height, 2u);
+  for (int i = 0; i < 6; ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(exr.rgb[3 * i + c], grey[i]) << i;
 }
 
 // A diffuse sphere under an environment image of one colour renders as under the constant background of that
