@@ -9,11 +9,15 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <future>
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "image/image_io.hpp"
+#include "kernel/fixed_point.hpp"
 #include "scene/json_positions.hpp"
 #include "test_support.hpp"
 
@@ -43,6 +47,10 @@ std::string replaced(const std::string& text, const std::string& from, const std
 }
 std::string with_object(const std::string& object) { return replaced(kBase, "OBJECT", object); }
 std::string with(const std::string& from, const std::string& to) { return replaced(with_object(kValidObject), from, to); }
+// The base scene with an environment background of these keys (besides its type).
+std::string environment(const std::string& keys) {
+  return with(R"("objects": [)", R"("background": {"type": "environment", )" + keys + R"(}, "objects": [)");
+}
 
 // The message of the InputError that parsing `text` throws (a failure, and "", where it is accepted).
 std::string parse_error(const std::string& text) {
@@ -211,6 +219,24 @@ std::vector<BadScene> bad_scenes() {
        "/textures/grid/file", "cannot read image file", R"("file": ^"textures")"},
       {"EmptyImageFileName", with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": ""})"),
        "/textures/grid/file", "the image file name is empty", R"("file": ^"")"},
+      // Environment images (background); bad texels and files that are not images are tested below with files of their own.
+      {"MissingEnvironmentImage", environment(R"("file": "textures/no-such-sky.exr")"), "/background/file", "no-such-sky.exr' does not exist",
+       R"(^"textures/no-such-sky)"},
+      {"EnvironmentImageIsAFolder", environment(R"("file": "textures")"), "/background/file", "cannot read image file", R"("file": ^"textures")"},
+      {"EnvironmentImageUnreadable", environment(R"("file": "README.md")"), "/background/file", "cannot read image file", R"(^"README.md")"},
+      {"EnvironmentWithoutFile", environment(R"("strength": 2)"), "/background", "missing required key 'file'", R"(^{"type": "environment")"},
+      {"EnvironmentFileNotAString", environment(R"("file": ["sky.exr"])"), "/background/file", "expected a string, found an array", R"(^["sky.exr"])"},
+      {"EnvironmentEmptyFileName", environment(R"("file": "")"), "/background/file", "the image file name is empty", R"("file": ^"")"},
+      {"EnvironmentNegativeStrength", environment(R"("file": "textures/sky-256x128.exr", "strength": -1)"), "/background/strength",
+       "-1 is outside the allowed range", R"("strength": ^-1)"},
+      {"EnvironmentStrengthNotANumber", environment(R"("file": "textures/sky-256x128.exr", "strength": "bright")"), "/background/strength",
+       "expected a number, found a string", R"(^"bright")"},
+      {"EnvironmentRotateNotAnAngle", environment(R"("file": "textures/sky-256x128.exr", "rotate": "left")"), "/background/rotate",
+       "expected an array", R"(^"left")"},
+      {"EnvironmentRotateTwoAngles", environment(R"("file": "textures/sky-256x128.exr", "rotate": [0, 90])"), "/background/rotate",
+       "expected 3 elements", R"(^[0, 90])"},
+      {"EnvironmentMisspelledKey", environment(R"("file": "textures/sky-256x128.exr", "strenght": 2)"), "/background/strenght",
+       "did you mean 'strength'", R"("strenght": ^2)"},
   };
 }
 
@@ -553,6 +579,96 @@ TEST(SceneFileErrors, JpegHuffmanTableOfMoreThan256CodesIsRefused) {
   }
 }
 
+// ---- environment images with bad content ----
+
+// A scene in `dir` whose background is the environment image `image` (relative to the scene), with extra keys.
+std::filesystem::path scene_with_environment(const test::TempDir& dir, const std::string& image, const std::string& keys = "") {
+  const std::filesystem::path file = dir / "scene.json";
+  test::write_text_file(file, environment(R"("file": ")" + image + "\"" + keys));
+  return file;
+}
+
+// A 4x2 float EXR, every texel 0.5 but texel (3, 1), which holds `value` in its green channel.
+void write_environment(const std::filesystem::path& path, float value) {
+  LinearImage image;
+  image.width = 4;
+  image.height = 2;
+  image.rgb.assign(24, 0.5f);
+  image.rgb[3 * (1 * 4 + 3) + 1] = value;
+  write_image(path, image);
+}
+
+// The InputError of loading the scene file, flattened for T when `flatten` (a failure and "" where it is accepted).
+template <class T = float>
+std::string load_error(const std::filesystem::path& file, bool flatten = false) {
+  try {
+    const SceneDescription scene = load_scene_file(file);
+    if (flatten) test::flatten<T>(scene);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
+TEST(EnvironmentImageErrors, GoodImageLoads) {
+  // Positive control for the tests below.
+  test::TempDir dir;
+  write_environment(dir / "sky.exr", 2.0f);
+  const SceneDescription scene = load_scene_file(scene_with_environment(dir, "sky.exr"));
+  ASSERT_TRUE(scene.environment.has_value());
+  EXPECT_EQ(scene.environment->rgb[3 * 7 + 1], 2.0f);
+  using Q16 = Fixed<16, 16>;
+  EXPECT_EQ(test::flatten<Q16>(scene).background.environment.width, 4u);
+}
+
+TEST(EnvironmentImageErrors, NonFiniteOrNegativeTexelsAreNamed) {
+  for (const float value : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(), -0.25f}) {
+    test::TempDir dir;
+    write_environment(dir / "sky.exr", value);
+    const std::filesystem::path file = scene_with_environment(dir, "sky.exr");
+    const std::string message = load_error(file);
+    EXPECT_EQ(message.rfind(file.string() + ":", 0), 0u) << message;
+    EXPECT_NE(message.find(": /background/file: image file '"), std::string::npos) << message;
+    EXPECT_NE(message.find("sky.exr': texel (3, 1) (column, row from the top left) has green " + fmt::format("{}", value)), std::string::npos)
+        << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+}
+
+TEST(EnvironmentImageErrors, TruncatedOrFakeExrIsNamedOnOneLine) {
+  test::TempDir dir;
+  write_environment(dir / "whole.exr", 1.0f);
+  const std::string bytes = test::read_text_file(dir / "whole.exr");
+  // Cut in the pixels, in the header, and a file of only the magic number.
+  for (const std::string& cut : {bytes.substr(0, bytes.size() - 20), bytes.substr(0, 40), std::string("\x76\x2f\x31\x01")}) {
+    test::write_text_file(dir / "sky.exr", cut);
+    const std::filesystem::path file = scene_with_environment(dir, "sky.exr");
+    const std::string message = load_error(file);
+    EXPECT_EQ(message.rfind(file.string() + ":", 0), 0u) << message;
+    EXPECT_NE(message.find(": /background/file: cannot read image file '"), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+}
+
+TEST(EnvironmentImageErrors, TexelsBeyondTheNumberFormatAreRefusedWhenFlattened) {
+  test::TempDir dir;
+  write_environment(dir / "sky.exr", 3000.0f);
+  // q10.10 holds at most 511.999: the texel is refused there, and accepted by float and q16.16.
+  const std::filesystem::path file = scene_with_environment(dir, "sky.exr");
+  using Q10 = Fixed<10, 10>;
+  using Q16 = Fixed<16, 16>;
+  const std::string message = load_error<Q10>(file, true);
+  EXPECT_EQ(message.rfind(file.string() + ":", 0), 0u) << message;
+  EXPECT_NE(message.find(": /background/file: 3000 (the brightest texel times the strength) does not fit q10.10"), std::string::npos) << message;
+  EXPECT_NO_THROW(test::flatten<Q16>(load_scene_file(file)));
+  // A strength that takes a texel past float's largest value, where environment images are kept.
+  write_environment(dir / "sky.exr", 1e10f);
+  const std::filesystem::path strong = scene_with_environment(dir, "sky.exr", R"(, "strength": 1e30)");
+  const std::string overflow = load_error<double>(strong, true);
+  EXPECT_NE(overflow.find(": /background/file: a texel times the strength, 1e+40, exceeds the largest float"), std::string::npos) << overflow;
+}
+
 // ---- the command-line program ----
 
 class CommandLineErrors : public ::testing::Test {
@@ -637,6 +753,16 @@ TEST_F(CommandLineErrors, EndlessDeviceAsSceneIsRefusedAtOnce) {
 TEST_F(CommandLineErrors, MissingSceneFileIsNamed) {
   const test::CommandResult result = render(dir_ / "absent.json", "-o " + test::quoted(dir_ / "out.png"));
   expect_single_error(result, (dir_ / "absent.json").string() + ": cannot open the scene file");
+}
+
+TEST_F(CommandLineErrors, BadEnvironmentImageIsNamedWithoutOutput) {
+  write_environment(dir_ / "sky.exr", -1.0f);
+  inputs_.push_back("sky.exr");
+  test::write_text_file(scene_, environment(R"("file": "sky.exr")"));
+  const test::CommandResult result = render(scene_, "-o " + test::quoted(dir_ / "out.png"));
+  expect_single_error(result, scene_.string() + ":6:");
+  EXPECT_NE(result.err.find("/background/file: image file '"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("has green -1"), std::string::npos) << result.err;
 }
 
 TEST_F(CommandLineErrors, MissingImageIsNamed) {

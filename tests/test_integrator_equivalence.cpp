@@ -125,7 +125,7 @@ TEST_P(IntegratorEquivalence, WavefrontMatchesMegakernelOnSycl) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, IntegratorEquivalence,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment"),
                          test::scene_test_name);
 
 }  // namespace

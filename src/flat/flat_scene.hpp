@@ -37,6 +37,9 @@ struct FlatScene {
   std::vector<u32> primitive_light;
   std::vector<T> light_triangle_cdf;
   u32 background_light = kNoLight;
+  // The environment image, when the background is one (kernel/background.hpp, EnvironmentArrays; empty otherwise):
+  // its texels times the strength, and the distribution importance sampling draws directions from.
+  std::vector<float> environment_rgb, environment_density, environment_row_cdf, environment_column_cdfs;
   Camera<T> camera;
   Background<T> background;
   RenderParams<T> params;
@@ -50,6 +53,13 @@ struct FlatScene {
   // Bytes of all arrays, as a device copy needs them.
   std::size_t bytes() const;
 };
+
+// The background with its environment image's arrays where kernels read them.
+template <class T>
+Background<T> with_arrays(Background<T> background, const EnvironmentArrays& arrays) {
+  background.environment.arrays = arrays;
+  return background;
+}
 
 // The one list of a flat scene's arrays: `place(array, what)` puts each array where the kernels will read it and
 // returns its address there (the host array itself on the CPU, a device copy on a GPU); `what` names it for errors.
@@ -72,7 +82,10 @@ SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
                                      place(scene.perlin_gradients, "copying the noise tables"),
                                      place(scene.perlin_permutations, "copying the noise tables")},
                       scene.camera,
-                      scene.background,
+                      with_arrays(scene.background, EnvironmentArrays{place(scene.environment_rgb, "copying the environment image"),
+                                                                      place(scene.environment_density, "copying the environment's distribution"),
+                                                                      place(scene.environment_row_cdf, "copying the environment's distribution"),
+                                                                      place(scene.environment_column_cdfs, "copying the environment's distribution")}),
                       LightData<T>{place(scene.light_entries, "copying the lights"), place(scene.primitive_light, "copying the lights"),
                                    place(scene.light_triangle_cdf, "copying the lights"), static_cast<u32>(scene.light_entries.size()),
                                    scene.background_light},
@@ -106,6 +119,11 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
 // picks each by its share of the emitted power (flat/light_table.cpp).
 template <class T>
 void build_light_table(FlatScene<T>& scene);
+// The background's mean radiance over all directions (the gradient's, or the environment image's as kernels see
+// it, strength included), for choosing among lights by power: the power a background sends into a sphere of radius
+// r around the scene is pi r^2 times 4 pi times this mean.
+template <class T>
+Color<double> background_mean_radiance(const FlatScene<T>& scene);
 
 // The brute-force closest hit (every primitive tested): the reference the BVH is checked against.
 template <class T>

@@ -17,6 +17,7 @@
 
 #include "flat/bvh_builder.hpp"
 #include "base/free_memory.hpp"
+#include "flat/environment.hpp"
 #include "base/number_formats.hpp"
 #include "image/image_io.hpp"
 #include "meshes/mesh.hpp"
@@ -132,6 +133,37 @@ class Fit {
   const SceneDescription& scene_;
   double scale_;
 };
+
+// The environment image: its texels times the strength, which must fit the type as any colour (the brightest is
+// checked: for fixed point this refuses most HDR images, docs/environment-lighting.md), its distribution, and the
+// rotation into the image's frame (the transpose of the map's).
+template <class T>
+void flatten_environment(const Fit<T>& fit, const SceneDescription& scene, FlatScene<T>& flat) {
+  const EnvironmentSettings& environment = *scene.environment;
+  const std::string& pointer = scene.written.environment;
+  flat.environment_rgb.resize(environment.rgb.size());
+  float brightest = 0;
+  for (std::size_t i = 0; i < environment.rgb.size(); ++i) {
+    const double value = static_cast<double>(environment.rgb[i]) * environment.strength;
+    flat.environment_rgb[i] = static_cast<float>(value);
+    brightest = std::max(brightest, flat.environment_rgb[i]);
+    // Stored in float whatever the scalar type (kernel/background.hpp, EnvironmentArrays).
+    if (!std::isfinite(flat.environment_rgb[i]))
+      throw InputError(fmt::format("{}: {}: a texel times the strength, {:g}, exceeds the largest float ({:g}), in which environment images are kept",
+                                   source_position(scene, pointer), pointer, value, static_cast<double>(std::numeric_limits<float>::max())));
+  }
+  fit(brightest, Quantity::kColour, pointer, "the brightest texel times the strength");
+  EnvironmentDistribution distribution = environment_distribution(flat.environment_rgb, environment.width, environment.height);
+  flat.environment_density = std::move(distribution.density);
+  flat.environment_row_cdf = std::move(distribution.row_cdf);
+  flat.environment_column_cdfs = std::move(distribution.column_cdfs);
+  EnvironmentMap<T>& map = flat.background.environment;
+  map.width = environment.width;
+  map.height = environment.height;
+  for (int i = 0; i < 3; ++i)
+    map.to_map.rows[i] = Vec3<T>{static_cast<T>(environment.rotation.rotation[0][i]), static_cast<T>(environment.rotation.rotation[1][i]),
+                                 static_cast<T>(environment.rotation.rotation[2][i])};
+}
 
 // A value of the BVH or of a fixed table: derived from values Fit has passed (bounds within a few L, unit vectors),
 // so it fits; should it not, flatten_scene turns this into an InputError naming the scene.
@@ -1044,7 +1076,8 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.scale = scale;
   flat.camera = fit_camera(fit, camera, settings.width, settings.height);
   flat.background = Background<T>{fit(scene.background.horizon, Quantity::kColour, scene.written.horizon),
-                                  fit(scene.background.zenith, Quantity::kColour, scene.written.zenith)};
+                                  fit(scene.background.zenith, Quantity::kColour, scene.written.zenith), {}};
+  if (scene.environment) flatten_environment(fit, scene, flat);
   for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
   for (u32 i = 0; i < scene.materials.size(); ++i) flat.materials.push_back(fit_material(fit, scene.materials[i], fit.material(i)));
   std::vector<Primitive<T>> converted;

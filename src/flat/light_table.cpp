@@ -164,7 +164,7 @@ void build_light_table(FlatScene<T>& scene) {
 
   // The background, where it shines, as a light around a sphere that holds the scene (pbrt's measure of a distant
   // light's power: pi R^2 times its mean radiance over the sphere of directions, 4 pi).
-  const double background = 0.5 * (luminance(scene.background.horizon) + luminance(scene.background.zenith));
+  const double background = luminance(background_mean_radiance(scene));
   if (background > 0 && !scene.nodes.empty()) {
     const Vec3d lo = to_double(scene.nodes[0].lo), hi = to_double(scene.nodes[0].hi);
     const double radius = 0.5 * length(hi - lo);

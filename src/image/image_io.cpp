@@ -24,6 +24,7 @@
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfIO.h>
+#include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <fmt/format.h>
 #include <stb/stb_image.h>
@@ -215,6 +216,124 @@ TextureImage read_texture_image_from_memory(std::span<const u8> bytes, const std
     throw InputError(fmt::format("cannot read {}: {} bytes, more than an image may have", subject, bytes.size()));
   MemoryTextureSource source(bytes);
   return decode_texture(source, subject);
+}
+
+namespace {
+
+// `subject` names the image in messages, as decode_texture's do.
+void check_environment_size(const std::string& subject, u64 width, u64 height) {
+  if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxEnvironmentTexels)
+    throw InputError(fmt::format("{} is {}x{} texels, larger than an environment image may be (at most {} per side and {} texels in "
+                                 "all; see docs/scene-format.md)",
+                                 subject, width, height, kMaxTextureSide, kMaxEnvironmentTexels));
+}
+
+// One line, whatever the library's message holds.
+std::string one_line(std::string text) {
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  return text;
+}
+
+LinearImage read_exr_environment(const std::filesystem::path& path, const std::string& subject) {
+  try {
+    // The header is read here; the pixels only by readPixels, after the size is checked.
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i window = file.header().dataWindow();
+    const std::int64_t width = std::int64_t{window.max.x} - window.min.x + 1, height = std::int64_t{window.max.y} - window.min.y + 1;
+    if (width <= 0 || height <= 0) throw InputError(fmt::format("cannot read {}: its data window is empty", subject));
+    check_environment_size(subject, static_cast<u64>(width), static_cast<u64>(height));
+    const Imf::ChannelList& channels = file.header().channels();
+    const bool rgb = channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");
+    if (!rgb && !channels.findChannel("Y")) throw InputError(fmt::format("cannot read {}: it has neither R, G and B channels nor a Y channel", subject));
+    LinearImage image;
+    image.width = static_cast<u32>(width);
+    image.height = static_cast<u32>(height);
+    image.rgb.resize(3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+    Imf::FrameBuffer frame;
+    const std::size_t x_stride = 3 * sizeof(float), y_stride = x_stride * static_cast<std::size_t>(width);
+    const char* names[3] = {"R", "G", "B"};
+    // A grey image's Y is read once, into the red channel, and copied below.
+    for (int c = 0; c < (rgb ? 3 : 1); ++c)
+      frame.insert(rgb ? names[c] : "Y", Imf::Slice::Make(Imf::FLOAT, image.rgb.data() + c, window, x_stride, y_stride));
+    file.setFrameBuffer(frame);
+    file.readPixels(window.min.y, window.max.y);
+    if (!rgb)
+      for (std::size_t i = 0; i < image.rgb.size(); i += 3) image.rgb[i + 1] = image.rgb[i + 2] = image.rgb[i];
+    return image;
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format("cannot read {}: {}", subject, one_line(e.what())));
+  }
+}
+
+LinearImage read_hdr_environment(std::FILE* file, const std::string& subject) {
+  int width = 0, height = 0, channels = 0;
+  if (!stbi_info_from_file(file, &width, &height, &channels)) {
+    const char* reason = stbi_failure_reason();
+    throw InputError(fmt::format("cannot read {}: {}", subject, reason ? reason : "unknown format"));
+  }
+  check_environment_size(subject, static_cast<u64>(width), static_cast<u64>(height));
+  float* pixels = stbi_loadf_from_file(file, &width, &height, &channels, 3);
+  if (!pixels) {
+    const char* reason = stbi_failure_reason();
+    throw InputError(fmt::format("cannot decode {}: {}", subject, reason ? reason : "unknown error"));
+  }
+  const std::unique_ptr<float, void (*)(void*)> owned(pixels, &stbi_image_free);
+  LinearImage image;
+  image.width = static_cast<u32>(width);
+  image.height = static_cast<u32>(height);
+  image.rgb.assign(pixels, pixels + 3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  return image;
+}
+
+}  // namespace
+
+LinearImage read_environment_image(const std::filesystem::path& path) {
+  const std::string subject = fmt::format("image file '{}'", path.string());
+  InputFile input = InputFile::open(path);
+  switch (input.problem()) {
+    case InputFile::Problem::kNone: break;
+    case InputFile::Problem::kMissing: throw InputError(fmt::format("image file '{}' does not exist", path.string()));
+    case InputFile::Problem::kFolder: throw InputError(fmt::format("cannot read image file '{}': it is a folder, not a file", path.string()));
+    case InputFile::Problem::kNotRegular: throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
+    case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), input.reason()));
+  }
+  // The format by its first bytes, not its name.
+  unsigned char magic[4] = {};
+  const bool exr = ::pread(input.descriptor(), magic, 4, 0) == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
+  LinearImage image;
+  if (exr) {
+    image = read_exr_environment(path, subject);
+  } else {
+    std::FILE* file = ::fdopen(input.descriptor(), "rb");
+    if (!file) throw InputError(fmt::format("cannot read {}: {}", subject, std::strerror(errno)));
+    input.release();
+    const std::unique_ptr<std::FILE, int (*)(std::FILE*)> owned(file, &std::fclose);
+    if (stbi_is_hdr_from_file(file)) {
+      image = read_hdr_environment(file, subject);
+    } else {
+      const TextureImage bytes = read_texture_image(path);
+      check_environment_size(subject, bytes.width, bytes.height);
+      const std::vector<float> decode = srgb_decode_table();
+      image.width = bytes.width;
+      image.height = bytes.height;
+      image.rgb.resize(bytes.srgb.size());
+      for (std::size_t i = 0; i < bytes.srgb.size(); ++i) image.rgb[i] = decode[bytes.srgb[i]];
+    }
+  }
+  // Radiance is finite and not negative: anything else would make every sample that sees it, and the sampling
+  // distribution built from it, meaningless.
+  for (std::size_t i = 0; i < image.rgb.size(); ++i) {
+    const float value = image.rgb[i];
+    if (std::isfinite(value) && value >= 0.0f) continue;
+    const std::size_t texel = i / 3;
+    throw InputError(fmt::format("{}: texel ({}, {}) (column, row from the top left) has {} {}; an environment image needs finite values of at "
+                                 "least 0",
+                                 subject, texel % image.width, texel / image.width, "RGB"[i % 3] == 'R' ? "red" : "RGB"[i % 3] == 'G' ? "green" : "blue",
+                                 value));
+  }
+  return image;
 }
 
 std::vector<float> srgb_decode_table() {

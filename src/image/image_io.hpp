@@ -51,6 +51,16 @@ TextureImage read_texture_image(const std::filesystem::path& path);
 // name it "image 'NAME'" where read_texture_image says "image file 'PATH'". Throws InputError.
 TextureImage read_texture_image_from_memory(std::span<const u8> bytes, const std::string& name_for_messages);
 
+// The largest environment image: 2^25 texels (an 8192x4096 map), 12 bytes each as linear floats, plus its sampling
+// distribution (about 8 bytes a texel); at most kMaxTextureSide on a side.
+inline constexpr u64 kMaxEnvironmentTexels = u64{1} << 25;
+
+// Reads an environment image as linear RGB: OpenEXR (its R, G and B channels, or Y for a grey image; the data
+// window), Radiance .hdr (through stb_image), or an 8-bit image as read_texture_image reads it, sRGB decoded. The
+// size is checked before the pixels are decoded; a texel that is not finite or is negative is refused, by its
+// position. Throws InputError ("image file 'PATH' ..." or "cannot read image file 'PATH': ...", one line).
+LinearImage read_environment_image(const std::filesystem::path& path);
+
 // The linear value of each sRGB byte: srgb_to_linear(i / 255).
 std::vector<float> srgb_decode_table();
 

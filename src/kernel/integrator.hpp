@@ -93,8 +93,9 @@ PT_HD inline Color<T> shadow_contribution(const SceneView<T>& scene, const Shado
   const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, shadow.bounce}, hit);
   const LightEntry<T>& light = scene.lights.entries[shadow.entry];
   if (light.primitive == kNoLight) {
-    if (blocked) return Color<T>{};
     const T light_density = light.pmf * background_pdf(scene.background, shadow.ray.direction);
+    // A direction that rounds into a black texel of an environment image has no density there: it carries nothing.
+    if (blocked || !(light_density > T(0))) return Color<T>{};
     return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * mis_weight_over_pdf(light_density, shadow.scatter_pdf);
   }
   if (!blocked || hit.primitive != light.primitive || hit.triangle != shadow.triangle) return Color<T>{};

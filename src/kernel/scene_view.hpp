@@ -2,15 +2,11 @@
 // an accelerator), the camera, the background and the render's parameters.
 #pragma once
 
+#include "kernel/background.hpp"
 #include "kernel/bvh.hpp"
 #include "kernel/camera.hpp"
 
 namespace pt {
-
-template <class T>
-struct Background {
-  Color<T> horizon, zenith;  // equal colours give a constant background
-};
 
 template <class T>
 struct RenderParams {
@@ -57,35 +53,9 @@ struct SceneView {
   const Texture<T>* textures;
   TextureData<T> texture_data;
   Camera<T> camera;
-  Background<T> background;
+  Background<T> background;  // with its environment image's arrays, when it has one
   LightData<T> lights;
   RenderParams<T> params;
 };
-
-template <class T>
-PT_HD inline Color<T> background_radiance(const Background<T>& background, const Vec3<T>& direction) {
-  const T a = constant<T>(0.5) * (direction.y + T(1));
-  return lerp(background.horizon, background.zenith, a);
-}
-
-// A direction towards the background, as a light: uniform over the sphere (the gradient varies too little for more).
-template <class T>
-struct BackgroundSample {
-  Vec3<T> direction;
-  Color<T> radiance;
-  T pdf;  // per unit solid angle
-};
-
-template <class T>
-PT_HD inline BackgroundSample<T> background_sample(const Background<T>& background, T u1, T u2) {
-  const Vec3<T> direction = uniform_unit_vector(u1, u2);
-  return BackgroundSample<T>{direction, background_radiance(background, direction), T(1) / (constant<T>(4) * pi<T>())};
-}
-
-// The density background_sample gives `direction`.
-template <class T>
-PT_HD inline T background_pdf(const Background<T>&, const Vec3<T>&) {
-  return T(1) / (constant<T>(4) * pi<T>());
-}
 
 }  // namespace pt

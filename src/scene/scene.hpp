@@ -203,6 +203,15 @@ struct SceneSourceMap {
   std::vector<std::string> textures;        // per texture its JSON path; for a solid texture, that of its colour array
   std::vector<std::string> materials;       // per material its JSON path (under /materials, or inline in an object)
   std::string horizon = "/background/horizon", zenith = "/background/zenith";  // the background's two colours
+  std::string environment = "/background/file";  // the environment image
+};
+
+// An environment image as read (image/image_io.hpp, read_environment_image), with what the scene says about it.
+struct EnvironmentSettings {
+  u32 width = 0, height = 0;
+  std::vector<float> rgb;   // linear RGB, 3 floats a texel, rows from the top; finite and not negative
+  double strength = 1;      // multiplies every texel
+  RigidTransform rotation;  // turns the image's frame into the world's
 };
 
 struct MeshFile;  // meshes/mesh.hpp
@@ -218,7 +227,8 @@ struct SceneDescription {
   SceneSourceMap written;  // where its parts were written in that file
   RenderSettings render;
   CameraSettings camera;
-  Background<double> background{{1, 1, 1}, {0.5, 0.7, 1.0}};
+  Background<double> background{{1, 1, 1}, {0.5, 0.7, 1.0}, {}};  // the gradient (its environment part is unused here)
+  std::optional<EnvironmentSettings> environment;               // in place of the gradient when present
   std::vector<Texture<double>> textures;
   std::vector<u8> texels;  // every image texture's sRGB-encoded RGB texels (TextureImage), one after another
   std::vector<Material<double>> materials;

@@ -309,10 +309,34 @@ class SceneReader {
     } else if (type == "constant") {
       n.allow_keys({"type", "color"});
       const Vec3d c = n.at("color").color();
-      scene_.background = {c, c};
+      scene_.background = {c, c, {}};
       scene_.written.horizon = scene_.written.zenith = n.child("color").pointer();
+    } else if (type == "environment") {
+      n.allow_keys({"type", "file", "strength", "rotate"});
+      const Node file = n.at("file");
+      const std::string name = file.string();
+      if (name.empty()) file.fail("the image file name is empty");
+      EnvironmentSettings environment;
+      if (n.has("strength")) environment.strength = n.child("strength").number_in(0, 1e30);
+      if (n.has("rotate")) {
+        // Degrees about the up axis (y), or about x, then y, then z as an object's transform rotates.
+        const Node rotate = n.child("rotate");
+        const Vec3d degrees = rotate.json().is_number() ? Vec3d{0, rotate.number(), 0} : rotate.vec3();
+        environment.rotation = RigidTransform::from_euler_degrees(degrees, {});
+      }
+      LinearImage image;
+      try {
+        image = read_environment_image(base_folder_ / name);
+      } catch (const InputError& e) {
+        file.fail(e.what());
+      }
+      environment.width = image.width;
+      environment.height = image.height;
+      environment.rgb = std::move(image.rgb);
+      scene_.environment = std::move(environment);
+      scene_.written.environment = file.pointer();
     } else {
-      n.child("type").fail(fmt::format("unknown background type '{}' (expected 'sky' or 'constant')", type));
+      n.child("type").fail(fmt::format("unknown background type '{}' (expected 'sky', 'constant' or 'environment')", type));
     }
   }
 
