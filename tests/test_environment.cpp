@@ -321,7 +321,7 @@ TEST(Environment, EscapedCameraRaySeesTexelTimesStrength) {
     }
   // The double kernels, the escape step itself.
   const FlatScene<double> flat = test::flatten<double>(scene);
-  PathState<double> path{Ray<double>{{0, 0, 0}, aim, 0}, {}, Color<double>{0.5, 1, 2}, 0};
+  PathState<double> path{Ray<double>{{0, 0, 0}, aim, 0}, {}, Color<double>{0.5, 1, 2}, 0, 0, 0.0};
   path_escaped(flat.view(), path);
   const Color<double> throughput{0.5, 1, 2};
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(path.radiance[c], throughput[c] * texel[c] * 2.5, 1e-6 * texel[c]);

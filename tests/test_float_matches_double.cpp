@@ -80,7 +80,7 @@ SceneDescription metallic_roughness_scene() {
 void expect_metallic_roughness_float_matches_double(const std::string& float_backend) {
   const SceneDescription scene = metallic_roughness_scene();
   ASSERT_TRUE(std::holds_alternative<MetallicRoughness<double>>(scene.materials[0]));
-  const SceneCase c{"metallic-roughness", 64, 48, 128, 0, 0};
+  const SceneCase c{"metallic-roughness", 64, 48, 128, 0, 0, 0};
   const test::PixelStatistics f = statistics_on<float>(float_backend, flatten_scene<float>(scene, case_settings(scene, c, c.samples, 707)));
   const test::PixelStatistics d = statistics_on<double>("cpu", flatten_scene<double>(scene, case_settings(scene, c, c.samples, 808)));
   EXPECT_EQ(f.non_finite, 0u);
