@@ -188,9 +188,8 @@ TextureImage decode_texture(TextureSource& source, const std::string& subject) {
   return image;
 }
 
-}  // namespace
-
-TextureImage read_texture_image(const std::filesystem::path& path) {
+// Opens an image file, or throws InputError saying why it cannot be read (missing, a folder, not a regular file).
+InputFile open_image_file(const std::filesystem::path& path) {
   InputFile input = InputFile::open(path);
   switch (input.problem()) {
     case InputFile::Problem::kNone: break;
@@ -199,6 +198,13 @@ TextureImage read_texture_image(const std::filesystem::path& path) {
     case InputFile::Problem::kNotRegular: throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
     case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), input.reason()));
   }
+  return input;
+}
+
+}  // namespace
+
+TextureImage read_texture_image(const std::filesystem::path& path) {
+  InputFile input = open_image_file(path);
   const std::string subject = fmt::format("image file '{}'", path.string());
   std::FILE* file = ::fdopen(input.descriptor(), "rb");
   if (!file) throw InputError(fmt::format("cannot read {}: {}", subject, std::strerror(errno)));
@@ -291,14 +297,7 @@ LinearImage read_hdr_environment(std::FILE* file, const std::string& subject) {
 
 LinearImage read_environment_image(const std::filesystem::path& path) {
   const std::string subject = fmt::format("image file '{}'", path.string());
-  InputFile input = InputFile::open(path);
-  switch (input.problem()) {
-    case InputFile::Problem::kNone: break;
-    case InputFile::Problem::kMissing: throw InputError(fmt::format("image file '{}' does not exist", path.string()));
-    case InputFile::Problem::kFolder: throw InputError(fmt::format("cannot read image file '{}': it is a folder, not a file", path.string()));
-    case InputFile::Problem::kNotRegular: throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
-    case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), input.reason()));
-  }
+  InputFile input = open_image_file(path);
   // The format by its first bytes, not its name.
   unsigned char magic[4] = {};
   const bool exr = ::pread(input.descriptor(), magic, 4, 0) == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
