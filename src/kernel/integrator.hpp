@@ -69,7 +69,7 @@ PT_HD inline void path_escaped(const SceneView<T>& scene, PathState<T>& path) {
 // tell whether it is seen (traced by the caller: shadow_contribution). Leaves shadow.entry at kNoLight where there is
 // nothing to trace.
 template <class T>
-PT_HD inline void sample_next_event(const SceneView<T>& scene, PathState<T>& path, const Material<T>& material, const SurfacePoint<T>& at,
+PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathState<T>& path, const Material<T>& material, const SurfacePoint<T>& at,
                                     const BounceRandom& random, ShadowRay<T>& shadow) {
   LightSample<T> light;
   if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
@@ -88,7 +88,7 @@ PT_HD inline void sample_next_event(const SceneView<T>& scene, PathState<T>& pat
 // before anything else (a medium it crosses may stop it, by its free-flight draw: transmittance on average), weighted
 // by MIS against scattering.
 template <class T>
-PT_HD inline Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
+PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
   Hit<T> hit{};
   const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, shadow.bounce}, hit);
   const LightEntry<T>& light = scene.lights.entries[shadow.entry];

@@ -20,6 +20,15 @@
 #define PT_HD
 #endif
 
+// Keeps a large step that only some paths take out of its caller in code for host CPUs, where inlining it slowed
+// every path (next-event estimation's shadow ray: BENCHMARKS.md, "Light sampling"). Compilers for GPUs, CUDA's and
+// SYCL's, decide for themselves.
+#if defined(__CUDACC__) || defined(PT_SYCL_KERNELS)
+#define PT_HOST_NOINLINE
+#else
+#define PT_HOST_NOINLINE __attribute__((noinline))
+#endif
+
 namespace pt {
 
 using u8 = std::uint8_t;
