@@ -162,7 +162,7 @@ TEST(LightTable, PicksEachLightByItsShareOfPower) {
     if (const auto* q = std::get_if<Quad<double>>(&flat.primitives[p].shape)) {
       ASSERT_NE(entry, kNoLight);
       EXPECT_EQ(flat.light_entries[entry].primitive, p);
-      pmf_by_area[std::round(1 / dot(q->normal, cross(q->du, q->dv)))] = flat.light_entries[entry].pmf;
+      pmf_by_area[std::round(quad_area(*q))] = flat.light_entries[entry].pmf;
       ++lights;
     } else {
       EXPECT_EQ(entry, kNoLight);  // the sphere does not emit

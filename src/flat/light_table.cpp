@@ -55,8 +55,6 @@ double emitted_luminance(const FlatScene<T>& scene, u32 material) {
   return 0;
 }
 
-double triangle_area(const Vec3d& a, const Vec3d& b, const Vec3d& c) { return 0.5 * length(cross(b - a, c - a)); }
-
 // Walker's alias table (Vose's construction): entry i keeps probability threshold_i of its own and gives the rest
 // to its alias, so that each light is picked with probability weight / total.
 template <class T>
@@ -115,7 +113,7 @@ void build_light_table(FlatScene<T>& scene) {
         const Vec3d a = to_double(scene.mesh_positions[mesh.first_vertex + tri.vertex[0]]);
         const Vec3d b = to_double(scene.mesh_positions[mesh.first_vertex + tri.vertex[1]]);
         const Vec3d c = to_double(scene.mesh_positions[mesh.first_vertex + tri.vertex[2]]);
-        weight = emitted * triangle_area(a, b, c);
+        weight = emitted * triangle_area(b - a, c - a);
       }
       cumulative[i + 1] = cumulative[i] + weight;
     }
@@ -152,9 +150,9 @@ void build_light_table(FlatScene<T>& scene) {
       double area = 0;
       if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) area = 4 * kPi * std::pow(static_cast<double>(s->radius), 2);
       else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) area = 4 * kPi * std::pow(static_cast<double>(m->radius), 2);
-      else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) area = 1 / static_cast<double>(dot(q->normal, cross(q->du, q->dv)));
-      else if (const auto* t = std::get_if<Triangle<T>>(&primitive.shape)) area = 0.5 * length(cross(to_double(t->edge1), to_double(t->edge2)));
-      power = emitted * std::abs(area);
+      else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) area = static_cast<double>(quad_area(*q));
+      else if (const auto* t = std::get_if<Triangle<T>>(&primitive.shape)) area = triangle_area(to_double(t->edge1), to_double(t->edge2));
+      power = emitted * area;
     }
     if (!(power > 0) || !std::isfinite(power)) continue;
     scene.primitive_light[p] = static_cast<u32>(scene.light_entries.size());

@@ -72,16 +72,10 @@ PT_HD inline void world_triangle(const MeshData<T>& meshes, const MeshInstance<T
 // A unit vector making angle acos(cos_theta) with the unit axis w, at azimuth `turn` (in turns) about it.
 template <class T>
 PT_HD inline Vec3<T> direction_about(const Vec3<T>& w, T cos_theta, T turn) {
-  // A frame about w (Frisvad's construction, made branch-free by Duff et al.).
-  const T sign = w.z >= T(0) ? T(1) : T(-1);
-  const T a = T(-1) / (sign + w.z);
-  const T b = w.x * w.y * a;
-  const Vec3<T> s{T(1) + sign * w.x * w.x * a, sign * b, -sign * w.x};
-  const Vec3<T> t{b, sign + w.y * w.y * a, -w.y};
   const T sin_theta = sqrt(max(T(0), T(1) - cos_theta * cos_theta));
   T c, sn;
   cos_sin_turns(turn, c, sn);
-  return (sin_theta * c) * s + (sin_theta * sn) * t + cos_theta * w;
+  return frame_from_normal(w).to_world(Vec3<T>{sin_theta * c, sin_theta * sn, cos_theta});
 }
 
 // 1 - cos(theta_max) of the cone a sphere of squared radius r2 fills, seen from squared distance d2 > r2; from the
@@ -159,7 +153,7 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   const Primitive<T>& primitive = scene.primitives[light.primitive];
   // An area density turned into one per solid angle: t^2 / |cos| at the light.
   const T cosine = abs(dot(at.geometric_normal, direction));
-  auto per_area = [&](T area) { return light.pmf * (t * t) / (cosine * abs(area)); };
+  auto per_area = [&](T area) { return light.pmf * (t * t) / (cosine * area); };
   auto sphere = [&](const Vec3<T>& center, T radius) {
     const T d2 = length_squared(center - from);
     const T r2 = radius * radius;
@@ -168,15 +162,15 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   };
   if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) return sphere(s->center, s->radius);
   if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) return sphere(moving_sphere_center(*m, ray.time), m->radius);
-  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) return per_area(T(1) / dot(q->normal, cross(q->du, q->dv)));
-  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return per_area(length(cross(tri->edge1, tri->edge2)) / constant<T>(2));
+  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) return per_area(quad_area(*q));
+  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return per_area(triangle_area(tri->edge1, tri->edge2));
   if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
     const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];
     const u32 start = light.first_cdf + (hit.triangle - mesh.first_triangle);
     const T share = scene.lights.triangle_cdf[start + 1] - scene.lights.triangle_cdf[start];
     Vec3<T> p[3];
     world_triangle(scene.meshes, *instance, hit.triangle, p);
-    return share * per_area(length(cross(p[1] - p[0], p[2] - p[0])) / constant<T>(2));
+    return share * per_area(triangle_area(p[1] - p[0], p[2] - p[0]));
   }
   return T(0);
 }

@@ -36,8 +36,19 @@ PT_HD inline Quad<T> make_quad(const Vec3<T>& corner, const Vec3<T>& u, const Ve
   return Quad<T>{corner, n / sqrt(area_squared), cross(v, n) / area_squared, cross(n, u) / area_squared};
 }
 
-// The edges u and v back from the dual vectors (for bounds): du x dv = normal / |u x v|, u = |u x v| dv x normal,
-// v = |u x v| normal x du.
+// A quad's area |u x v|, from its dual vectors: du x dv = normal / |u x v|.
+template <class T>
+PT_HD inline T quad_area(const Quad<T>& q) {
+  return abs(T(1) / dot(q.normal, cross(q.du, q.dv)));
+}
+
+// A triangle's area from two of its edges.
+template <class T>
+PT_HD inline T triangle_area(const Vec3<T>& edge1, const Vec3<T>& edge2) {
+  return length(cross(edge1, edge2)) / constant<T>(2);
+}
+
+// The edges u and v back from the dual vectors (for bounds): u = |u x v| dv x normal, v = |u x v| normal x du.
 template <class T>
 PT_HD inline void quad_edges(const Quad<T>& q, Vec3<T>& u, Vec3<T>& v) {
   const T area = T(1) / dot(q.normal, cross(q.du, q.dv));
