@@ -157,6 +157,8 @@ std::vector<BadScene> bad_scenes() {
        R"("render": ^{)"},
       {"ZeroSamples", with("\"samples_per_pixel\": 1", "\"samples_per_pixel\": 0"), "/render/samples_per_pixel", "outside the allowed range",
        R"("samples_per_pixel": ^0)"},
+      {"UnknownSampler", with("\"max_depth\": 4", "\"max_depth\": 4, \"sampler\": \"halton\""), "/render/sampler",
+       "'halton' is not a sampler: sobol or independent", R"(^"halton")"},
       {"DepthAboveLimit", with("\"max_depth\": 4", "\"max_depth\": 10001"), "/render/max_depth", "10001 is outside the allowed range", "^10001"},
       {"NegativeSeed", with("\"max_depth\": 4", "\"max_depth\": 4, \"seed\": -3"), "/render/seed", "must not be negative, found -3", "^-3"},
       {"RetiredTmin", with("\"max_depth\": 4", "\"max_depth\": 4, \"t_min\": 0.001"), "/render/t_min", "t_min is no longer a setting", "^0.001"},

@@ -26,10 +26,11 @@ const char* const kScene = R"({
   ]})";
 
 template <class T>
-LinearImage render_at(u32 spp, u32 seed) {
+LinearImage render_at(u32 spp, u32 seed, SamplerKind sampler = SamplerKind::kIndependent) {
   SceneDescription scene = test::parse(kScene, "convergence.json");
   scene.render.samples_per_pixel = spp;
   scene.render.seed = seed;
+  scene.render.sampler = sampler;
   return test::render(test::flatten<T>(scene), 2).image;
 }
 
@@ -49,8 +50,8 @@ TYPED_TEST_SUITE(ErrorFallsAsInverseSqrtOfSamples, ScalarTypes);
 
 TYPED_TEST(ErrorFallsAsInverseSqrtOfSamples, FourTimesTheSamplesHalvesTheRmse) {
   using T = TypeParam;
-  // Independent seeds at every level; the reference's own noise (2048 samples) lowers the expected ratio between 16
-  // and 64 samples only to 1.97.
+  // Independent samples (stratified ones converge faster: below), and independent seeds at every level; the
+  // reference's own noise (2048 samples) lowers the expected ratio between 16 and 64 samples only to 1.97.
   const LinearImage reference = render_at<T>(2048, 1000);
   const double e4 = rmse(render_at<T>(4, 1), reference);
   const double e16 = rmse(render_at<T>(16, 2), reference);
@@ -61,6 +62,16 @@ TYPED_TEST(ErrorFallsAsInverseSqrtOfSamples, FourTimesTheSamplesHalvesTheRmse) {
   EXPECT_LT(e16 / e64, 2.5) << e16 << " " << e64;
   // The scene is noisy at all: an image that converged at once would make the ratios meaningless.
   EXPECT_GT(e4, 0.02);
+}
+
+TEST(StratifiedSamples, ErrorFallsAtLeastAsFastAsTheInverseSqrtAndStaysBelowIndependentSamples) {
+  const LinearImage reference = render_at<float>(2048, 1000);
+  const double e4 = rmse(render_at<float>(4, 1, SamplerKind::kSobol), reference);
+  const double e16 = rmse(render_at<float>(16, 2, SamplerKind::kSobol), reference);
+  const double e64 = rmse(render_at<float>(64, 3, SamplerKind::kSobol), reference);
+  EXPECT_GT(e4 / e16, 1.8) << e4 << " " << e16;
+  EXPECT_GT(e16 / e64, 1.8) << e16 << " " << e64;
+  EXPECT_LT(e64, 0.9 * rmse(render_at<float>(64, 3, SamplerKind::kIndependent), reference));
 }
 
 TEST(ErrorFallsAsInverseSqrtOfSamplesGuard, BiasedImageStopsConverging) {

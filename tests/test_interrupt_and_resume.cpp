@@ -134,6 +134,12 @@ TEST(ResumedRender, TimeLimitThenResumeGivesTheSameImageFile) {
   EXPECT_EQ(other.exit_code, 1);
   EXPECT_NE(other.err.find("cannot resume"), std::string::npos) << other.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "other.pfm"));
+  // Likewise with the other sampler: its samples would not continue the film's sequences.
+  const test::CommandResult sampler = test::run_pathtracer(
+      "render " + scene + size + "--sampler independent --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "other.pfm"), dir);
+  EXPECT_EQ(sampler.exit_code, 1);
+  EXPECT_NE(sampler.err.find("cannot resume"), std::string::npos) << sampler.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "other.pfm"));
   EXPECT_FALSE(temporaries_left(dir.path()));
 }
 

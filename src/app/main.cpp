@@ -54,6 +54,7 @@ struct RenderOptions {
   std::string number_format = "float";
   std::string integrator = "auto";
   std::optional<std::string> light_sampling;  // "nee" or "none"; the scene's (NEE by default) if omitted
+  std::optional<std::string> sampler;         // "sobol" or "independent"; the scene's (sobol by default) if omitted
   bool quiet = false;
   bool verbose = false;  // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
@@ -103,6 +104,7 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   if (options.depth) settings.max_depth = *options.depth;
   if (options.seed) settings.seed = *options.seed;
   if (options.light_sampling) settings.light_sampling = *options.light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+  if (options.sampler) settings.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
   // The scene's own size was checked when it was read, so a size too large here comes from the command line.
   if (options.width && options.height) check_image_size(settings.width, settings.height, fmt::format("--width {} --height {}", settings.width, settings.height));
   else if (options.width) check_image_size(settings.width, settings.height, fmt::format("--width {} with the scene's height {} ({})", settings.width, settings.height, scene.source));
@@ -137,8 +139,9 @@ CheckpointKey render_key(const RenderOptions& options, const SceneDescription& s
   std::ostringstream text;
   text << in.rdbuf();
   return checkpoint_key(text.str(),
-                        fmt::format("depth {} seed {} roulette {} format {} lights {}", settings.max_depth, settings.seed, settings.roulette_depth,
-                                    options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee"),
+                        fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {}", settings.max_depth, settings.seed,
+                                    settings.roulette_depth, options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee",
+                                    sampler_name(settings.sampler)),
                         settings.width, settings.height);
 }
 
@@ -345,6 +348,10 @@ int main(int argc, char** argv) {
                         "nee (next-event estimation: a shadow ray to a light at every diffuse bounce, with multiple importance sampling) "
                         "or none (lights found only by scattering); the scene's, else nee, if omitted")
         ->check(CLI::IsMember({"nee", "none"}));
+    command->add_option("--sampler", options.sampler,
+                        "sobol (each pixel's samples stratified in every dimension: Owen-scrambled Sobol points) or independent "
+                        "(uncorrelated random numbers); the scene's, else sobol, if omitted")
+        ->check(CLI::IsMember({"sobol", "independent"}));
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")
         ->check(CLI::IsMember(number_format_names()))
         ->capture_default_str();

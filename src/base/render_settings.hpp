@@ -2,7 +2,7 @@
 // the command line overrides them, and flattening hands them to the kernels.
 #pragma once
 
-#include "kernel/platform.hpp"
+#include "kernel/random.hpp"
 
 namespace pt {
 
@@ -16,8 +16,11 @@ struct RenderSettings {
   u32 samples_per_pixel = 100;
   u32 max_depth = 50;
   u32 seed = 1;
-  u32 roulette_depth = 0;
+  u32 roulette_depth = 3;  // as pbrt, Mitsuba and Cycles do: long paths of little weight cost most of the time
   LightSampling light_sampling = LightSampling::kNextEvent;
+  SamplerKind sampler = SamplerKind::kSobol;
 };
+
+inline const char* sampler_name(SamplerKind kind) { return kind == SamplerKind::kSobol ? "sobol" : "independent"; }
 
 }  // namespace pt

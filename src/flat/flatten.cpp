@@ -1117,7 +1117,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.texels = scene.texels;
   flat.srgb_decode = srgb_decode_table();
   flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth,
-                                settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u};
+                                settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u, settings.sampler};
   flat.samples_per_pixel = settings.samples_per_pixel;
   build_light_table(flat);
   return flat;

@@ -39,7 +39,7 @@ struct ShadowRay {
 
 template <class T>
 PT_HD inline SampleRandom path_random(const RenderParams<T>& params, u32 pixel, u32 sample) {
-  return SampleRandom::make(params.seed, pixel, sample);
+  return SampleRandom::make(params.seed, pixel, sample, params.sampler);
 }
 
 // A new path: the camera ray of one sample of pixel (x, y).

@@ -15,6 +15,7 @@ struct RenderParams {
   u32 seed;
   u32 roulette_depth;  // 0: no Russian roulette
   u32 next_event;      // 1: next-event estimation with multiple importance sampling (kernel/lights.hpp); 0: none
+  SamplerKind sampler;  // how each pixel's samples are placed (kernel/random.hpp)
 };
 
 // ---- Lights, for next-event estimation ----

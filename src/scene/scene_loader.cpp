@@ -256,7 +256,7 @@ class SceneReader {
   }
 
   void read_render(const Node& n) {
-    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "light_sampling", "t_min"});
+    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "light_sampling", "sampler", "t_min"});
     RenderSettings& r = scene_.render;
     if (n.has("width")) r.width = n.child("width").integer(1, kMaxImageSide);
     if (n.has("height")) r.height = n.child("height").integer(1, kMaxImageSide);
@@ -270,6 +270,12 @@ class SceneReader {
       const std::string value = choice.string();
       if (value != "nee" && value != "none") choice.fail(fmt::format("'{}' is not a light sampling: nee or none", value));
       r.light_sampling = value == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+    }
+    if (n.has("sampler")) {
+      const Node choice = n.child("sampler");
+      const std::string value = choice.string();
+      if (value != "sobol" && value != "independent") choice.fail(fmt::format("'{}' is not a sampler: sobol or independent", value));
+      r.sampler = value == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
     }
     // t_min once kept rays from hitting the surface they leave; its fixed distance was wrong at most scales. Rays
     // now start off the surface by the hit point's own rounding error bound (kernel/shapes.hpp, describe_hit).
