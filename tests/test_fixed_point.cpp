@@ -139,6 +139,23 @@ TYPED_TEST(FixedPointTest, LogWithinOneStep) {
   }
 }
 
+// exp: one step, plus the series' relative error (2^-56) where results are large.
+TYPED_TEST(FixedPointTest, ExpWithinOneStep) {
+  using T = TypeParam;
+  std::mt19937_64 rng(8);
+  const long double top = std::log(max_value<T>());
+  std::uniform_real_distribution<double> spread(-60.0, static_cast<double>(top));
+  for (int i = 0; i < kDraws; ++i) {
+    const T a = T(spread(rng));
+    const long double expected = std::exp(exact(a));
+    if (expected >= max_value<T>()) continue;
+    EXPECT_LE(std::fabs(exact(exp(a)) - expected), ulp<T>() + expected * 0x1p-56L + 1e-15L) << exact(a);
+  }
+  EXPECT_EQ(exact(exp(T(0))), 1.0L);
+  // The most negative value: 0 or the step nearest exp of it (narrow formats reach only -8 or -4).
+  EXPECT_LE(std::fabs(exact(exp(-largest<T>())) - std::exp(-max_value<T>())), ulp<T>());
+}
+
 // Out of range saturates to the largest magnitude with the right sign, and every event is counted.
 TYPED_TEST(FixedPointTest, OverflowSaturatesAndIsCounted) {
   using T = TypeParam;

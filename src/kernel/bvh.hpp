@@ -444,30 +444,33 @@ struct SceneLeaf {
 
 // Closest hit along the ray (beyond zero) over the binary tree.
 template <class T>
-PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
-  T closest = largest<T>();
+PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
+                                     T t_max = largest<T>()) {
+  T closest = t_max;
   SceneLeaf<T> leaf{scene, ray, context, hit};
   return walk_binary(scene.nodes, 0u, make_box_ray(ray), closest, leaf);
 }
 
 // Closest hit along the ray (beyond zero) over the wide tree.
 template <class T>
-PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
-  T closest = largest<T>();
+PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
+                                   T t_max = largest<T>()) {
+  T closest = t_max;
   SceneLeaf<T> leaf{scene, ray, context, hit};
   return walk_wide(scene.wide_nodes, 0u, make_wide_ray(ray), closest, leaf);
 }
 
-// Closest hit along the ray (beyond zero), over the tree the device walks best (walk_tree).
+// Closest hit along the ray (beyond zero, before t_max), over the tree the device walks best (walk_tree).
 template <class T>
-PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit) {
+PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
+                              T t_max = largest<T>()) {
 #if defined(__CUDA_ARCH__)
-  return closest_hit_binary(scene, ray, context, hit);
+  return closest_hit_binary(scene, ray, context, hit, t_max);
 #elif defined(PT_ACPP_SINGLE_PASS)
-  __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit);)
-  return closest_hit_wide(scene, ray, context, hit);
+  __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit, t_max);)
+  return closest_hit_wide(scene, ray, context, hit, t_max);
 #else
-  return closest_hit_wide(scene, ray, context, hit);
+  return closest_hit_wide(scene, ray, context, hit, t_max);
 #endif
 }
 

@@ -298,6 +298,25 @@ struct ScalarTraits<Fixed<I, F>> {
     const i128 result = static_cast<i128>(top - F) * fixed_detail::kLn2 + 2 * static_cast<i128>(fixed_detail::mul_unit(z, sum));
     return T::from_wide(result, fixed_detail::kUnitBits);
   }
+  // exp x = 2^k exp(r) with k = round(x / ln 2) and |r| <= ln 2 / 2, the series of exp(r) in the internal format.
+  // Results below half a step round to 0; above the range they saturate.
+  PT_HD static constexpr T exp(T x) {
+    const i128 wide = static_cast<i128>(x.raw) * (i128(1) << (fixed_detail::kUnitBits - F));
+    const i128 half = fixed_detail::kLn2 / 2;
+    const i128 k = (wide + (wide >= 0 ? half : -half)) / fixed_detail::kLn2;
+    const i64 r = static_cast<i64>(wide - k * fixed_detail::kLn2);
+    i64 sum = fixed_detail::kOne;
+    for (i64 n = 20; n >= 1; --n) sum = fixed_detail::kOne + fixed_detail::mul_unit(r, sum) / n;
+    const i128 from_bits = fixed_detail::kUnitBits - k;  // sum 2^k, read with this many fraction bits
+    if (from_bits > 120) return T::from_raw(0);
+    if (from_bits >= F) return T::from_wide(sum, static_cast<int>(from_bits));
+    const i128 shift = F - from_bits;
+    if (shift > 62) {
+      fixed_detail::note_saturation();
+      return T::from_raw(T::kMaxRaw);
+    }
+    return T::from_wide(static_cast<i128>(sum) << shift, F);
+  }
   PT_HD static constexpr T floor(T x) {
     const i64 floored = static_cast<i64>(x.raw) & ~((i64(1) << F) - 1);
     return T::from_raw(T::saturate(floored));

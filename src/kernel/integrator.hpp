@@ -26,15 +26,15 @@ struct PathState {
 
 // A shadow ray of next-event estimation, waiting to be traced: what it adds when it reaches the light of `entry`
 // (for a mesh, its `triangle`) unblocked is weight x emitted radiance x the MIS weight over the light's density.
-// `bounce` keys the draws of the media it crosses (with kShadowBounceBit set).
+// The media it crosses weigh it by their transmittance and draw no random numbers.
 template <class T>
 struct ShadowRay {
   Ray<T> ray;
   Color<T> weight;  // the path's throughput times the material's scattering towards the light
   T scatter_pdf;    // the density with which the material would have scattered that way
+  T distance;       // how far the ray may look for the light: just beyond the point chosen on it
   u32 entry;        // kNoLight: none to trace
   u32 triangle;
-  u32 bounce;
 };
 
 template <class T>
@@ -78,25 +78,28 @@ PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathSta
   shadow.ray = spawn_ray(at, light.direction, path.ray.time);
   shadow.weight = path.throughput * value.value;
   shadow.scatter_pdf = value.pdf;
+  // A margin of 1/1024 keeps the light itself within reach of the rounded hit distance; only media there (a fog that
+  // also fills the light) count for a length they should not, at most that fraction of the way.
+  shadow.distance = light.distance + light.distance * constant<T>(1.0 / 1024);
   shadow.entry = light.entry;
   shadow.triangle = light.triangle;
-  shadow.bounce = random.bounce | kShadowBounceBit;
   ++path.shadow_rays;
 }
 
 // What a shadow ray adds to its path's radiance: the light's emission where the ray meets the light it aimed at
-// before anything else (a medium it crosses may stop it, by its free-flight draw: transmittance on average), weighted
-// by MIS against scattering.
+// before anything else, times the transmittance of the media it crosses (exact for constant media: exp(-density x
+// length inside)), weighted by MIS against scattering.
 template <class T>
 PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
   Hit<T> hit{};
-  const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, shadow.bounce}, hit);
+  T optical_depth = T(0);
+  const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, 0, &optical_depth}, hit, shadow.distance);
   const LightEntry<T>& light = scene.lights.entries[shadow.entry];
   if (light.primitive == kNoLight) {
     const T light_density = light.pmf * background_pdf(scene.background, shadow.ray.direction);
     // A direction that rounds into a black texel of an environment image has no density there: it carries nothing.
     if (blocked || !(light_density > T(0))) return Color<T>{};
-    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * mis_weight_over_pdf(light_density, shadow.scatter_pdf);
+    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * exp(-optical_depth));
   }
   if (!blocked || hit.primitive != light.primitive || hit.triangle != shadow.triangle) return Color<T>{};
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
@@ -104,7 +107,7 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
   const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));
   const T light_density = light_pdf(scene, shadow.entry, shadow.ray, hit, at);
   if (!(light_density > T(0))) return Color<T>{};
-  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * mis_weight_over_pdf(light_density, shadow.scatter_pdf);
+  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * exp(-optical_depth));
 }
 
 // The path hit something: it gathers the emission there, picks a light to sample (next-event estimation: the shadow

@@ -8,14 +8,11 @@
 
 namespace pt {
 
-// A shadow ray's bounce key has this bit set, so the free-flight draws of the media it crosses are not the ones the
-// path's own next ray takes (the two must be independent).
-inline constexpr u32 kShadowBounceBit = 0x80000000u;
-
 // A direction towards a light: the entry picked, and for a mesh the triangle the direction aims at.
 template <class T>
 struct LightSample {
   Vec3<T> direction;
+  T distance;  // to the point on the light (largest<T>() for the background)
   u32 entry;
   u32 triangle;
 };
@@ -98,6 +95,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
   random.uniform_pair(kDimLightPoint, u1, u2);
   if (light.primitive == kNoLight) {
     out.direction = background_sample(scene.background, u1, u2).direction;
+    out.distance = largest<T>();
     return true;
   }
   const Primitive<T>& primitive = scene.primitives[light.primitive];
@@ -109,6 +107,9 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
     if (d2 > r2) {
       const T width = sphere_cone_width(r2, d2);
       out.direction = direction_about(to_center / sqrt(d2), T(1) - u1 * width, u2);
+      // Where the direction enters the sphere; the tangent's length bounds it where rounding misses the sphere.
+      T near, far;
+      out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0) ? near : sqrt(d2 - r2);
       return true;
     }
     target = center + radius * uniform_unit_vector(u1, u2);
@@ -138,7 +139,8 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
   const Vec3<T> to_target = target - from;
   const T len2 = length_squared(to_target);
   if (!(len2 > T(0))) return false;
-  out.direction = to_target / sqrt(len2);
+  out.distance = sqrt(len2);
+  out.direction = to_target / out.distance;
   return true;
 }
 

@@ -21,6 +21,7 @@ struct ScalarTraits<float> {
   PT_HD static float atan2(float y, float x) { return ::atan2f(y, x); }
   PT_HD static float asin(float x) { return ::asinf(x); }
   PT_HD static float log(float x) { return ::logf(x); }
+  PT_HD static float exp(float x) { return ::expf(x); }
   PT_HD static float floor(float x) { return ::floorf(x); }
   PT_HD static float abs(float x) { return ::fabsf(x); }
   // Comparisons rather than fminf/fmaxf: those are library calls on x86-64 (they must order NaN), which cost
@@ -81,6 +82,7 @@ struct ScalarTraits<double> {
   PT_HD static double atan2(double y, double x) { return ::atan2(y, x); }
   PT_HD static double asin(double x) { return ::asin(x); }
   PT_HD static double log(double x) { return ::log(x); }
+  PT_HD static double exp(double x) { return ::exp(x); }
   PT_HD static double floor(double x) { return ::floor(x); }
   PT_HD static double abs(double x) { return ::fabs(x); }
   PT_HD static double min(double a, double b) { return a < b ? a : b; }
@@ -109,6 +111,7 @@ template <class T> PT_HD inline void cos_sin_turns(T turns, T& c, T& s) { Scalar
 template <class T> PT_HD inline T atan2(T y, T x) { return ScalarTraits<T>::atan2(y, x); }
 template <class T> PT_HD inline T asin(T x) { return ScalarTraits<T>::asin(x); }
 template <class T> PT_HD inline T log(T x) { return ScalarTraits<T>::log(x); }
+template <class T> PT_HD inline T exp(T x) { return ScalarTraits<T>::exp(x); }
 template <class T> PT_HD inline T floor(T x) { return ScalarTraits<T>::floor(x); }
 template <class T> PT_HD inline T abs(T x) { return ScalarTraits<T>::abs(x); }
 template <class T> PT_HD inline T min(T a, T b) { return ScalarTraits<T>::min(a, b); }

@@ -145,11 +145,14 @@ struct Hit {
 };
 
 // What intersecting a medium needs besides the ray: its boundary and a random number for the free-flight distance.
+// A shadow ray gives `optical_depth` instead: media do not stop it, they add density x the length of the ray inside
+// them (up to the closest hit so far) to it, and the caller weights by the transmittance exp(-optical_depth).
 template <class T>
 struct IntersectContext {
   const Primitive<T>* boundaries;
   const SampleRandom* random;
   u32 bounce;
+  T* optical_depth = nullptr;
 };
 
 // The two distances at which the ray's line crosses the sphere, nearest first; false where it misses. With a unit
@@ -276,6 +279,10 @@ PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitiv
   exit = min(exit, t_max);
   if (!(entry < exit)) return false;
   entry = max(entry, T(0));
+  if (context.optical_depth) {
+    if (entry < exit) *context.optical_depth += (entry - exit) / medium.neg_inv_density;
+    return false;
+  }
   const T u = context.random->template uniform<T>(context.bounce, kDimMediumBase + primitive_index);
   const T distance = medium.neg_inv_density * log(T(1) - u);  // 1 - u lies in (0, 1]: the logarithm is finite
   if (distance > exit - entry) return false;

@@ -47,9 +47,9 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
   FIELD(T, time)                \
   FIELD(Color<T>, weight)       \
   FIELD(T, scatter_pdf)         \
+  FIELD(T, distance)            \
   FIELD(u32, entry)             \
   FIELD(u32, triangle)          \
-  FIELD(u32, bounce)            \
   FIELD(u32, item)              \
   FIELD(u32, slot)
 
@@ -99,7 +99,7 @@ struct ShadowQueue {
   }
 
   PT_HD ShadowRay<T> load(u32 i) const {
-    return ShadowRay<T>{Ray<T>{origin[i], direction[i], time[i]}, weight[i], scatter_pdf[i], entry[i], triangle[i], bounce[i]};
+    return ShadowRay<T>{Ray<T>{origin[i], direction[i], time[i]}, weight[i], scatter_pdf[i], distance[i], entry[i], triangle[i]};
   }
   PT_HD void store(u32 i, const ShadowRay<T>& shadow, u32 work_item, u32 next_slot) const {
     origin[i] = shadow.ray.origin;
@@ -107,9 +107,9 @@ struct ShadowQueue {
     time[i] = shadow.ray.time;
     weight[i] = shadow.weight;
     scatter_pdf[i] = shadow.scatter_pdf;
+    distance[i] = shadow.distance;
     entry[i] = shadow.entry;
     triangle[i] = shadow.triangle;
-    bounce[i] = shadow.bounce;
     item[i] = work_item;
     slot[i] = next_slot;
   }

@@ -1,0 +1,40 @@
+#!/usr/bin/env python3
+"""Root-mean-square error of linear PFM images against a reference, over every channel of every pixel, and the
+share of it in the pixels brighter than 1.5 in the reference (an emitter seen directly and its edges).
+Usage: tools/rmse.py REFERENCE.pfm IMAGE.pfm [IMAGE.pfm ...]"""
+import math
+import struct
+import sys
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        if f.readline().strip() != b"PF":
+            raise SystemExit(f"{path}: not a colour PFM")
+        width, height = map(int, f.readline().split())
+        scale = float(f.readline())
+        count = width * height * 3
+        data = f.read(4 * count)
+        if len(data) != 4 * count:
+            raise SystemExit(f"{path}: truncated")
+        return width, height, struct.unpack(("<" if scale < 0 else ">") + f"{count}f", data)
+
+
+def main():
+    if len(sys.argv) < 3:
+        raise SystemExit(__doc__)
+    width, height, reference = read_pfm(sys.argv[1])
+    bright = [sum(reference[3 * i:3 * i + 3]) / 3 > 1.5 for i in range(width * height)]
+    for path in sys.argv[2:]:
+        w, h, image = read_pfm(path)
+        if (w, h) != (width, height):
+            raise SystemExit(f"{path}: {w}x{h}, the reference is {width}x{height}")
+        squared = [sum((image[3 * i + c] - reference[3 * i + c]) ** 2 for c in range(3)) for i in range(w * h)]
+        total = sum(squared)
+        in_bright = sum(s for s, b in zip(squared, bright) if b)
+        print(f"{path}: rmse {math.sqrt(total / (3 * w * h)):.5f}, {100 * in_bright / total if total else 0:.0f}% of the squared error in "
+              f"{sum(bright)} bright pixels")
+
+
+if __name__ == "__main__":
+    main()
