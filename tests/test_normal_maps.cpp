@@ -12,6 +12,9 @@
 #include "kernel/integrator.hpp"
 #include "scene_cases.hpp"
 #include "test_support.hpp"
+#if PT_HAVE_CUDA
+#include "backends/cuda/cuda_backend.hpp"
+#endif
 
 namespace pt {
 namespace {
@@ -362,6 +365,60 @@ TEST(NormalMapRender, WavefrontEqualsMegakernelBitwise) {
     EXPECT_EQ(mega.stats.rays, wave.stats.rays);
     EXPECT_EQ(mega.stats.dropped_samples, 0u);
   }
+}
+
+// Float on `backend` against double on the CPU, independent seeds, every sample finite.
+void expect_normal_maps_float_matches_double(const test::TempDir& dir, const std::string& backend) {
+  const SceneDescription scene = load_normal_map_scene(dir, R"(, "normal_map": "bumps.ppm")");
+  const test::SceneCase c{"normal-maps", 32, 32, 256, 0, 0, 0};
+  const test::PixelStatistics f = test::statistics_on<float>(backend, flatten_scene<float>(scene, test::case_settings(scene, c, c.samples, 41)));
+  const test::PixelStatistics d = test::statistics_on<double>("cpu", flatten_scene<double>(scene, test::case_settings(scene, c, c.samples, 42)));
+  EXPECT_EQ(f.non_finite, 0u);
+  EXPECT_EQ(d.non_finite, 0u);
+  test::expect_blocks_agree(f, d, "float", "double", "normal-mapped scene (float on " + backend + ")");
+}
+
+// Light sampling with MIS against paths that find lights only by scattering: both must see the same directions as
+// reflected (below the geometric surface none is) with the same densities, or the images part.
+void expect_next_event_matches_naive(const test::TempDir& dir, const std::string& backend, u32 samples) {
+  const SceneDescription scene = load_normal_map_scene(dir, R"(, "normal_map": "bumps.ppm", "normal_scale": 1.5)");
+  const test::SceneCase c{"normal-maps", 32, 32, samples, 0, 0, 0};
+  RenderSettings nee = test::case_settings(scene, c, samples, 51), naive = test::case_settings(scene, c, samples, 52);
+  nee.light_sampling = LightSampling::kNextEvent;
+  naive.light_sampling = LightSampling::kNone;
+  const test::PixelStatistics a = test::statistics_on<float>(backend, flatten_scene<float>(scene, nee));
+  const test::PixelStatistics b = test::statistics_on<float>(backend, flatten_scene<float>(scene, naive));
+  EXPECT_EQ(a.non_finite, 0u);
+  EXPECT_EQ(b.non_finite, 0u);
+  test::expect_blocks_agree(a, b, "nee", "naive", "normal-mapped scene (" + backend + ")");
+}
+
+TEST(NormalMapRender, NextEventMatchesNaive) {
+  test::TempDir dir;
+  write_normal_map_files(dir);
+  expect_next_event_matches_naive(dir, "cpu", 1024);
+}
+
+TEST(NormalMapRender, CudaNextEventMatchesNaiveAtHighSampleCounts) {
+#if !PT_HAVE_CUDA
+  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
+#else
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  test::TempDir dir;
+  write_normal_map_files(dir);
+  expect_next_event_matches_naive(dir, "cuda", 16384);
+#endif
+}
+
+TEST(NormalMapRender, CudaFiniteAndMatchesCpuDouble) {
+#if !PT_HAVE_CUDA
+  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
+#else
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  test::TempDir dir;
+  write_normal_map_files(dir);
+  expect_normal_maps_float_matches_double(dir, "cuda");
+#endif
 }
 
 TEST(NormalMapRender, ChangesThePictureAndFloatMatchesDouble) {
