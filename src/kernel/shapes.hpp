@@ -450,7 +450,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       set_spawn_offset(at, outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);
-      // u grows westward round the y axis (sphere_uv), v towards +y: dp/du is along (z, 0, -x), and dp/dv along
+      // u grows as atan2(z, x) falls (sphere_uv), v towards +y: dp/du is along (z, 0, -x), and dp/dv along
       // outward x dp/du. No frame at the poles.
       if (needs_tangent) {
         const Vec3<T> dpdu{outward.z, T(0), -outward.x};
