@@ -92,7 +92,8 @@ TEST_P(BackendParity, SyclImageMatchesCpuImageForTheSameSeed) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, BackendParity,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment",
+                                           "normal-maps"),
                          test::scene_test_name);
 INSTANTIATE_TEST_SUITE_P(RealModels, BackendParity, ::testing::Values("engine_glb", "box_textured_gltf", "spider_obj", "wuson_ply"),
                          test::scene_test_name);

@@ -89,6 +89,15 @@ std::vector<BadScene> bad_scenes() {
       // Mesh objects: the model file, its transform and material.
       {"MissingModelFile", with_object(R"({"type": "mesh", "file": "models/missing.ply"})"), "/objects/1/file", "missing.ply: cannot open the PLY file",
        R"("file": ^"models/missing.ply")"},
+      {"MissingNormalMap",
+       with_object(R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_map": "textures/absent-normals.png"}})"),
+       "/objects/1/material/normal_map", "absent-normals.png' does not exist", R"("normal_map": ^"textures/absent-normals.png")"},
+      {"NormalMapThatIsNotAnImage",
+       with_object(R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_map": "models/knot.ply"}})"),
+       "/objects/1/material/normal_map", "cannot read image file", R"("normal_map": ^"models/knot.ply")"},
+      {"NormalScaleWithoutNormalMap",
+       with_object(R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_scale": 2}})"),
+       "/objects/1/material/normal_scale", "'normal_scale' needs a 'normal_map'", R"("normal_scale": ^2)"},
       {"ModelFileOfUnknownType", with_object(R"({"type": "mesh", "file": "textures/planet-1024x512.png"})"), "/objects/1/file",
        "unknown model file type '.png'", R"("file": ^"textures/planet)"},
       {"MeshScaledByZero", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scale": [1, 0, 1]}})"), "/objects/1/transform/scale",
@@ -773,6 +782,15 @@ TEST_F(CommandLineErrors, MissingImageIsNamed) {
   const test::CommandResult result = render(scene_, "-o " + test::quoted(dir_ / "out.png"));
   expect_single_error(result, scene_.string() + ":4:");
   EXPECT_NE(result.err.find("absent.png' does not exist"), std::string::npos) << result.err;
+}
+
+TEST_F(CommandLineErrors, MissingNormalMapIsNamed) {
+  test::write_text_file(scene_, with(R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]})",
+                                     R"("white": {"type": "metallic_roughness", "base_color": [0.8, 0.8, 0.8], "normal_map": "bumps.png"})"));
+  const test::CommandResult result = render(scene_, "-o " + test::quoted(dir_ / "out.png"));
+  expect_single_error(result, scene_.string() + ":5:");
+  EXPECT_NE(result.err.find("/materials/white/normal_map: image file '"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("bumps.png' does not exist"), std::string::npos) << result.err;
 }
 
 TEST_F(CommandLineErrors, OutputFolderThatDoesNotExist) {

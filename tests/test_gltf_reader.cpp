@@ -583,6 +583,79 @@ TEST(GltfWrittenFiles, PrimitiveWithoutNormalsBesideOneWithGetsFlatNormals) {
   EXPECT_TRUE(file.warnings.empty()) << all_warnings(file);
 }
 
+// A triangle in z = 0 with normals, uvs and tangents (along -y, bitangent sign -1), its material's normal texture
+// read with TEXCOORD_`normal_set`.
+Document normal_mapped_triangle(const test::TempDir& dir, int normal_set = 0) {
+  Document d = one_triangle();
+  auto& attributes = d.doc["meshes"][0]["primitives"][0]["attributes"];
+  attributes["NORMAL"] = d.vec3({0, 0, 1, 0, 0, 1, 0, 0, 1});
+  attributes["TEXCOORD_0"] = d.accessor(d.view(bytes_of(std::vector<float>{0, 0, 1, 0, 0, 1})), 5126, 3, "VEC2");
+  attributes["TANGENT"] = d.accessor(d.view(bytes_of(std::vector<float>{0, -2, 0, -1, 0, -1, 0, -1, 0, -0.5f, 0, -1})), 5126, 3, "VEC4");
+  d.doc["meshes"][0]["primitives"][0]["material"] = 0;
+  d.doc["materials"] = json::array({{{"normalTexture", {{"index", 0}, {"scale", 0.5}, {"texCoord", normal_set}}}}});
+  d.doc["textures"] = json::array({{{"source", 0}}});
+  d.doc["images"] = json::array({{{"uri", "normals.png"}}});
+  write_image(dir / "normals.png", LinearImage{1, 1, {0.5f, 0.5f, 1.0f}});
+  d.doc["nodes"] = json::array({{{"mesh", 0}}});
+  return d;
+}
+
+TEST(GltfWrittenFiles, TangentsAndNormalTextureAreRead) {
+  test::TempDir dir;
+  const MeshFile file = read_gltf_file(normal_mapped_triangle(dir).write(dir, "normals.gltf"));
+  expect_consistent(file);
+  EXPECT_TRUE(file.warnings.empty()) << all_warnings(file);
+  ASSERT_EQ(file.materials.size(), 1u);
+  EXPECT_GE(file.materials[0].normal_texture, 0);
+  EXPECT_EQ(file.materials[0].normal_scale, 0.5);
+  const TriangleMesh& mesh = file.meshes.at(0);
+  // Normalised, and w kept as a sign.
+  const std::vector<std::array<double, 4>> expected = {{0, -1, 0, -1}, {0, -1, 0, -1}, {0, -1, 0, -1}};
+  EXPECT_EQ(mesh.tangents, expected);
+
+  // Flattened, the tangents are kept (the material has a normal map), and the map is read as linear data.
+  SceneDescription scene = test::generated_scene({0, 0, 3});
+  const u32 index = add_mesh_file(scene, std::make_shared<MeshFile>(file), "/objects/0/file");
+  test::place_mesh(scene, index, {1, 1, 1}, {0, 0, 0}, {0, 0, 0});
+  const FlatScene<float> flat = test::flatten<float>(scene);
+  ASSERT_EQ(flat.mesh_tangents.size(), 3u);
+  EXPECT_EQ(flat.meshes.at(0).first_tangent, 0u);
+  EXPECT_EQ(flat.mesh_tangents[1].sign, -1.0f);
+  const auto& material = std::get<MetallicRoughness<float>>(flat.materials.at(0));
+  EXPECT_EQ(material.normal_scale, 0.5f);
+  EXPECT_EQ(std::get<ImageTexture<float>>(flat.textures.at(material.normal_map)).linear, 1u);
+  // A hit reads them: the tangent (0, -1, 0), the bitangent -normal x tangent = (-1, 0, 0).
+  const SceneView<float> view = flat.view();
+  const Ray<float> ray{{0.2f, 0.2f, 2}, {0, 0, -1}, 0};
+  Hit<float> hit{};
+  ASSERT_TRUE(closest_hit(view, ray, IntersectContext<float>{view.boundaries, nullptr, 0}, hit));
+  const SurfacePoint<float> at = describe_hit(view.primitives[hit.primitive], view.triangle_attributes, view.meshes, ray, hit, true, true);
+  EXPECT_NEAR(at.tangent.y, -1.0f, 1e-6f);
+  EXPECT_EQ(at.handedness, -1.0f);
+
+  // Without a normal texture the tangents are not read at all; with one on another uv set it is not applied.
+  Document plain = normal_mapped_triangle(dir);
+  plain.doc["materials"] = json::array({json::object()});
+  EXPECT_TRUE(read_gltf_file(plain.write(dir, "plain.gltf")).meshes.at(0).tangents.empty());
+  const MeshFile other_set = read_gltf_file(normal_mapped_triangle(dir, 1).write(dir, "set1.gltf"));
+  EXPECT_EQ(other_set.materials.at(0).normal_texture, -1);
+  EXPECT_TRUE(has_warning(other_set, "/materials/0/normalTexture: normal textures read with a texture coordinate set other than TEXCOORD_0"))
+      << all_warnings(other_set);
+}
+
+TEST(GltfWrittenFiles, VertexTangentsAreStoredOnlyForMeshesWithANormalMap) {
+  // The same mesh with tangents, its material with and without a normal map: only the first pays for them.
+  test::TempDir dir;
+  const MeshFile file = read_gltf_file(normal_mapped_triangle(dir).write(dir, "normals.gltf"));
+  auto without = std::make_shared<MeshFile>(file);
+  without->materials[0].normal_texture = -1;
+  SceneDescription scene = test::generated_scene({0, 0, 3});
+  test::place_mesh(scene, add_mesh_file(scene, without, "/objects/0/file"), {1, 1, 1}, {0, 0, 0}, {0, 0, 0});
+  const FlatScene<float> flat = test::flatten<float>(scene);
+  EXPECT_TRUE(flat.mesh_tangents.empty());
+  EXPECT_EQ(flat.meshes.at(0).first_tangent, kNoAttributes);
+}
+
 TEST(GltfWrittenFiles, UnsupportedThingsAreRefusedWithTheirPath) {
   test::TempDir dir;
   {

@@ -125,7 +125,8 @@ TEST_P(IntegratorEquivalence, WavefrontMatchesMegakernelOnSycl) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, IntegratorEquivalence,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment",
+                                           "normal-maps"),
                          test::scene_test_name);
 
 }  // namespace

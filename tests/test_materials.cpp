@@ -217,7 +217,7 @@ TEST(DielectricScattering, NormalIncidenceReflectsSchlickR0AndRefractsStraightTh
   for (int i = 0; i < n; ++i) {
     Trial<double> trial;
     trial.in = Ray<double>{{0, 0, 1}, {0, 0, -1}, 0};
-    trial.at = SurfacePoint<double>{{0, 0, 0}, {0, 0, 1}, 0, 0, true, 0, {0, 0, 1}, 0};
+    trial.at = SurfacePoint<double>{{0, 0, 0}, {0, 0, 1}, 0, 0, true, 0, {0, 0, 1}, 0, {}, 0};
     trial.random = SampleRandom::make(12, static_cast<u32>(i), 0);
     Scatter<double> out;
     ASSERT_TRUE(scatter<double>(glass, trial, textures, out));
@@ -245,7 +245,7 @@ TEST(DielectricScattering, ObliqueRaysObeySnellAndSchlick) {
     for (int i = 0; i < count; ++i) {
       Trial<double> trial;
       trial.in = Ray<double>{{0, 1, 0}, d, 0};
-      trial.at = SurfacePoint<double>{{0, 0, 0}, n, 0, 0, entering, 0, entering ? n : -n, 0};
+      trial.at = SurfacePoint<double>{{0, 0, 0}, n, 0, 0, entering, 0, entering ? n : -n, 0, {}, 0};
       trial.random = SampleRandom::make(13, static_cast<u32>(i), 0);
       Scatter<double> out;
       ASSERT_TRUE(scatter<double>(Dielectric<double>{ior, {1, 1, 1}}, trial, textures, out));
@@ -273,7 +273,7 @@ TEST(DielectricScattering, BeyondTheCriticalAngleReflectsTotally) {
   for (u32 i = 0; i < 2000; ++i) {
     Trial<double> trial;
     trial.in = Ray<double>{{0, 1, 0}, d, 0};
-    trial.at = SurfacePoint<double>{{0, 0, 0}, n, 0, 0, false, 0, -n, 0};  // inside the glass
+    trial.at = SurfacePoint<double>{{0, 0, 0}, n, 0, 0, false, 0, -n, 0, {}, 0};  // inside the glass
     trial.random = SampleRandom::make(14, i, 0);
     Scatter<double> out;
     ASSERT_TRUE(scatter<double>(Dielectric<double>{1.5, {1, 1, 1}}, trial, textures, out));

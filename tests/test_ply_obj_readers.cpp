@@ -646,7 +646,10 @@ TEST(ObjReader, MaterialsMapOntoBaseColourEmissionAndRoughness) {
   EXPECT_EQ(texture.srgb, (std::vector<u8>{255, 0, 0, 0, 0, 255}));
   EXPECT_EQ(file.materials[2].name, "default");
   EXPECT_EQ(file.meshes[0].materials, (std::vector<u32>{2, 0, 1}));
-  EXPECT_TRUE(has_warning(file, "bump, normal and displacement maps are not rendered (material 'painted')")) << all_warnings(file);
+  // red-blue.png is no normal map: a height map, which is not rendered, said with its line.
+  EXPECT_TRUE(has_warning(file, "two.mtl: line 3: material 'painted': bump map 'red-blue.png' is a height map, not a tangent-space normal map"))
+      << all_warnings(file);
+  EXPECT_EQ(painted.normal_texture, -1);
   EXPECT_TRUE(has_warning(file, "some faces have texture coordinates and some not")) << all_warnings(file);
 }
 
@@ -670,6 +673,80 @@ TEST(ObjReader, SpecularAndPbrStatementsChooseTheMetallicRoughnessModel) {
   EXPECT_NEAR(file.materials[2].roughness, 0.3, 1e-6);  // Pr wins over Ns
   EXPECT_TRUE(has_warning(file, "specular highlights (Ks) take a dielectric's reflectance (F0 = 0.04), not the colour Ks gives (material 'shiny')"))
       << all_warnings(file);
+}
+
+// A P6 PPM image (bytes as given).
+void write_ppm(const std::filesystem::path& path, u32 width, u32 height, const std::vector<u8>& rgb) {
+  std::string text = "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
+  text.append(reinterpret_cast<const char*>(rgb.data()), rgb.size());
+  test::write_text_file(path, text);
+}
+
+TEST(ObjReader, NormalMapsFromNormOrFromABumpStatementThatHoldsOne) {
+  test::TempDir dir;
+  write_ppm(dir / "normals.ppm", 2, 1, {128, 128, 255, 200, 128, 230});
+  write_ppm(dir / "height.ppm", 2, 1, {10, 10, 10, 200, 200, 200});
+  test::write_text_file(dir / "n.mtl",
+                        "newmtl normed\nKd 0.5 0.5 0.5\nnorm -bm 0.5 normals.ppm\n\n"
+                        "newmtl bumped\nKd 0.5 0.5 0.5\nmap_Bump normals.ppm\n\n"
+                        "newmtl heights\nKd 0.5 0.5 0.5\nbump height.ppm\n");
+  test::write_text_file(dir / "n.obj",
+                        "mtllib n.mtl\n" + kTriangleObj + "usemtl normed\nf 1 2 3\nusemtl bumped\nf 1 3 4\nusemtl heights\nf 2 3 4\n");
+  const MeshFile file = read_obj_file(dir / "n.obj");
+  ASSERT_EQ(file.materials.size(), 3u);
+  const MeshMaterial& normed = file.materials[0];
+  ASSERT_GE(normed.normal_texture, 0);
+  EXPECT_EQ(normed.normal_scale, 0.5);
+  EXPECT_TRUE(normed.metallic_roughness_model);  // normal maps shade with the metallic-roughness model
+  EXPECT_EQ(file.textures.at(static_cast<std::size_t>(normed.normal_texture)).srgb, (std::vector<u8>{128, 128, 255, 200, 128, 230}));
+  EXPECT_EQ(file.materials[1].normal_texture, normed.normal_texture);  // the same image, read once
+  EXPECT_EQ(file.materials[1].normal_scale, 1.0);
+  EXPECT_EQ(file.materials[2].normal_texture, -1);
+  EXPECT_FALSE(file.materials[2].metallic_roughness_model);
+  EXPECT_TRUE(has_warning(file, "n.mtl: line 11: material 'heights': bump map 'height.ppm' is a height map, not a tangent-space normal map"))
+      << all_warnings(file);
+  EXPECT_EQ(file.warnings.size(), 1u) << all_warnings(file);
+}
+
+TEST(ObjReader, MetallicAndRoughnessMapsArePackedAsGltfDoes) {
+  test::TempDir dir;
+  write_ppm(dir / "metal.ppm", 2, 1, {0, 0, 0, 255, 255, 255});
+  write_ppm(dir / "rough.ppm", 1, 1, {100, 100, 100});
+  write_ppm(dir / "rough-green.ppm", 2, 1, {1, 50, 2, 3, 60, 4});
+  test::write_text_file(dir / "p.mtl",
+                        "newmtl both\nKd 0.5 0.5 0.5\nmap_Pm metal.ppm\nmap_Pr rough.ppm\n\n"
+                        "newmtl scaled\nKd 0.5 0.5 0.5\nPr 0.5\nmap_Pr -imfchan g rough-green.ppm\nPm 0.25\n");
+  test::write_text_file(dir / "p.obj", "mtllib p.mtl\n" + kTriangleObj + "usemtl both\nf 1 2 3\nusemtl scaled\nf 1 3 4\n");
+  const MeshFile file = read_obj_file(dir / "p.obj");
+  ASSERT_EQ(file.materials.size(), 2u);
+  const MeshMaterial& both = file.materials[0];
+  EXPECT_TRUE(both.metallic_roughness_model);
+  ASSERT_GE(both.metallic_roughness_texture, 0);
+  // Roughness in green (the 1x1 image spread over the larger width), metallic in blue; the maps as they are.
+  EXPECT_EQ(file.textures.at(static_cast<std::size_t>(both.metallic_roughness_texture)).srgb, (std::vector<u8>{0, 100, 0, 0, 100, 255}));
+  EXPECT_EQ(both.metallic, 1.0);
+  EXPECT_EQ(both.roughness, 1.0);
+  // A constant beside its map multiplies it; a constant alone fills its channel (the factor says how much).
+  const MeshMaterial& scaled = file.materials[1];
+  ASSERT_GE(scaled.metallic_roughness_texture, 0);
+  EXPECT_EQ(file.textures.at(static_cast<std::size_t>(scaled.metallic_roughness_texture)).srgb, (std::vector<u8>{0, 50, 255, 0, 60, 255}));
+  EXPECT_EQ(scaled.roughness, 0.5);
+  EXPECT_EQ(scaled.metallic, 0.25);
+  EXPECT_TRUE(file.warnings.empty()) << all_warnings(file);
+}
+
+TEST(ObjReader, MissingNormalOrMetallicMapIsRefusedWithItsLine) {
+  test::TempDir dir;
+  test::write_text_file(dir / "a.mtl", "newmtl first\nKd 1 0 0\n\nnewmtl bumpy\nKd 1 1 1\nPr 0.3\nnorm maps/absent.png\n");
+  test::write_text_file(dir / "a.obj", "mtllib a.mtl\n" + kTriangleObj + "usemtl bumpy\nf 1 2 3\n");
+  expect_refused(dir / "a.obj", {"a.mtl: line 7: material 'bumpy': norm:", (dir / "maps/absent.png").string(), "does not exist"});
+  test::write_text_file(dir / "b.mtl", "newmtl shiny\nmap_Pm gone.png\n");
+  test::write_text_file(dir / "b.obj", "mtllib b.mtl\n" + kTriangleObj + "usemtl shiny\nf 1 2 3\n");
+  expect_refused(dir / "b.obj", {"b.mtl: line 2: material 'shiny': map_Pm:", "gone.png", "does not exist"});
+  test::write_text_file(dir / "c.mtl", "newmtl bumpy\nmap_Bump not-an-image.png\n");
+  test::write_text_file(dir / "not-an-image.png", "text\n");
+  test::write_text_file(dir / "c.obj", "mtllib c.mtl\n" + kTriangleObj + "usemtl bumpy\nf 1 2 3\n");
+  expect_refused(dir / "c.obj", {"c.mtl: line 2: material 'bumpy': map_Bump:", "not-an-image.png"});
 }
 
 TEST(ObjReader, CornersAreUnifiedAcrossPositionNormalAndUvIndices) {

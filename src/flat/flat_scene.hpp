@@ -21,6 +21,7 @@ struct FlatScene {
   // (binary and wide, node indices global), and the transforms of instances.
   std::vector<Vec3<T>> mesh_positions, mesh_normals;
   std::vector<MeshUv<T>> mesh_uvs;
+  std::vector<MeshTangent<T>> mesh_tangents;  // only for meshes with vertex tangents whose material has a normal map
   std::vector<MeshTriangle> mesh_triangles;
   std::vector<MeshRecord> meshes;
   std::vector<InstanceTransform<T>> instance_transforms;
@@ -74,7 +75,8 @@ SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
                       MeshData<T>{place(scene.mesh_positions, "copying the mesh vertices"), place(scene.mesh_normals, "copying the mesh normals"),
                                   place(scene.mesh_uvs, "copying the mesh texture coordinates"), place(scene.mesh_triangles, "copying the mesh triangles"),
                                   place(scene.meshes, "copying the meshes"), place(scene.instance_transforms, "copying the instance transforms"),
-                                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs")},
+                                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs"),
+                                  place(scene.mesh_tangents, "copying the mesh tangents")},
                       place(scene.materials, "copying the materials"),
                       place(scene.textures, "copying the textures"),
                       // Every image texture's texels in one array; ImageTexture::offset says where each starts.

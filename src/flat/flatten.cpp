@@ -222,7 +222,9 @@ Material<T> fit_material(const Fit<T>& fit, const Material<double>& material, co
     }
     Material<T> operator()(const DiffuseLight<double>& m) const { return DiffuseLight<T>{m.texture}; }
     Material<T> operator()(const Isotropic<double>& m) const { return Isotropic<T>{m.texture}; }
-    Material<T> operator()(const MetallicRoughness<double>& m) const { return MetallicRoughness<T>{m.base_color, m.metallic_roughness}; }
+    Material<T> operator()(const MetallicRoughness<double>& m) const {
+      return MetallicRoughness<T>{m.base_color, m.metallic_roughness, m.normal_map, fit(m.normal_scale, Quantity::kPlain, at + "/normal_scale")};
+    }
   };
   return visit(Convert{fit, at}, material);
 }
@@ -702,6 +704,7 @@ struct MeshBuild {
   AffineTransform placed;  // mesh space to the space the mesh is stored in (the identity for a shared mesh)
   bool identity = true;    // placed is the identity
   bool has_normals = false, has_uvs = false;
+  bool has_tangents = false;  // the file's vertex tangents, kept where a triangle's material has a normal map
   double scale = 1;  // flatten_scene's scale, applied to lengths as they are converted
   std::vector<MeshTriangle> triangles;
   // Float boxes where the mesh's coordinates fit float (half the memory of double; exact corners for float
@@ -709,6 +712,11 @@ struct MeshBuild {
   std::variant<BuiltBvh<float>, BuiltBvh<double>> bvh;
 
   Vec3d position(u32 v) const { return identity ? source->positions[v] : placed.apply_point(source->positions[v]); }
+  // A tangent is a vector along the surface: it goes by the map itself (normals by its inverse transpose).
+  Vec3d tangent(u32 v) const {
+    const std::array<double, 4>& t = source->tangents[v];
+    return identity ? Vec3d{t[0], t[1], t[2]} : placed.apply_vector(Vec3d{t[0], t[1], t[2]});
+  }
   Vec3d normal(u32 v) const {
     const Vec3d turned = identity ? source->normals[v] : placed.apply_normal(source->normals[v]);
     const double length_squared_n = length_squared(turned);
@@ -733,6 +741,7 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
   out.identity = placed.is_identity();
   out.has_normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
   out.has_uvs = mesh.uvs.size() == mesh.positions.size() && !mesh.uvs.empty();
+  const bool file_tangents = out.has_normals && mesh.tangents.size() == mesh.positions.size();
   // The mapped vertices, for the build only (freed when it returns).
   std::vector<Vec3d> mapped;
   if (!out.identity) {
@@ -761,6 +770,10 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
     const u32 file_material = mesh.materials.empty() ? 0 : mesh.materials[t];
     const u32 material = file_material < entry.materials.size() ? entry.materials[file_material] : entry.materials.at(0);
     out.triangles.push_back(mirrored ? MeshTriangle{{v[0], v[2], v[1]}, material} : MeshTriangle{{v[0], v[1], v[2]}, material});
+    if (file_tangents && !out.has_tangents) {
+      const auto* m = std::get_if<MetallicRoughness<double>>(&scene.materials[material]);
+      out.has_tangents = m && m->normal_map != kNoNormalMap;
+    }
     Aabb box;
     box.grow(a);
     box.grow(b);
@@ -819,15 +832,17 @@ void append_and_free(A& to, A& from) {
 template <class T>
 void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std::vector<AffineTransform>& maps, const std::vector<u32>& map_objects,
                     FlatScene<T>& flat) {
-  std::size_t vertices = 0, normals = 0, uvs = 0;
+  std::size_t vertices = 0, normals = 0, uvs = 0, tangents = 0;
   for (const MeshBuild& m : meshes) {
     vertices += m.source->positions.size();
     normals += m.has_normals ? m.source->positions.size() : 0;
     uvs += m.has_uvs ? m.source->positions.size() : 0;
+    tangents += m.has_tangents ? m.source->positions.size() : 0;
   }
   flat.mesh_positions.reserve(vertices);
   flat.mesh_normals.reserve(normals);
   flat.mesh_uvs.reserve(uvs);
+  flat.mesh_tangents.reserve(tangents);
   if (meshes.size() > 1) {  // one mesh's arrays are taken over (append_and_free)
     std::size_t triangles = 0, nodes = 0;
     for (const MeshBuild& m : meshes) {
@@ -861,6 +876,20 @@ void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std
       record.first_uv = static_cast<u32>(flat.mesh_uvs.size());
       for (const auto& uv : m.source->uvs)
         flat.mesh_uvs.push_back(MeshUv<T>{fit(uv[0], Quantity::kPlain, where, "a texture coordinate"), fit(uv[1], Quantity::kPlain, where, "a texture coordinate")});
+    }
+    record.first_tangent = kNoAttributes;
+    if (m.has_tangents) {
+      // Unit length, so that a placement's scale cannot take them out of the type's range (only directions count).
+      // The bitangent is sign * normal x tangent: a mirroring placement maps the tangent and the bitangent as
+      // vectors but keeps the normal outward, so the sign turns with it.
+      record.first_tangent = static_cast<u32>(flat.mesh_tangents.size());
+      const double mirror = m.placed.determinant() < 0 ? -1.0 : 1.0;
+      for (u32 v = 0; v < vertex_count; ++v) {
+        const Vec3d t = m.tangent(v);
+        const double norm = length(t);
+        flat.mesh_tangents.push_back(MeshTangent<T>{fit(norm > 0 && std::isfinite(norm) ? t / norm : Vec3d{}, Quantity::kPlain, where, "a vertex tangent"),
+                                                    fit(m.source->tangents[v][3] < 0 ? -mirror : mirror, Quantity::kPlain, where, "a vertex tangent")});
+      }
     }
     record.first_triangle = static_cast<u32>(flat.mesh_triangles.size());
     record.triangle_count = static_cast<u32>(m.triangles.size());

@@ -120,7 +120,7 @@ PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, cons
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const bool needs_uv = material_needs_uv(material, scene.textures);
-  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv);
+  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv, material_needs_tangent(material));
   // Emission counts with the throughput of the path that reached it (the seed dropped this factor), weighted against
   // light sampling where that could have found it.
   T weight = T(1);

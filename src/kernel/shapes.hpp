@@ -76,6 +76,10 @@ struct MeshTriangle {
 
 template <class T> struct MeshUv { T u, v; };
 
+// A vertex's tangent as a model file gives it (glTF's TANGENT): its direction (along increasing u) and the sign of
+// the bitangent, sign * normal x direction. Kept only for meshes whose material has a normal map.
+template <class T> struct MeshTangent { Vec3<T> direction; T sign; };
+
 inline constexpr u32 kNoAttributes = 0xffffffffu;
 
 struct MeshRecord {
@@ -85,6 +89,7 @@ struct MeshRecord {
   u32 root;          // its BVH's root in MeshData::nodes, and the same tree's in wide_nodes
   u32 wide_root;
   u32 first_triangle, triangle_count;  // its triangles in MeshData::triangles
+  u32 first_tangent;  // kNoAttributes where it has no vertex tangents (they are derived from the uvs where needed)
 };
 
 // An affine map as the rows of its 3x4 matrix.
@@ -123,6 +128,7 @@ struct MeshData {
   const InstanceTransform<T>* transforms;
   const BvhNode<T>* nodes;
   const WideBvhNode<T>* wide_nodes;
+  const MeshTangent<T>* tangents;
 };
 
 template <class T>
@@ -334,8 +340,40 @@ PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_norm
   at.offset = dot(vabs(unit_normal), error);
 }
 
+// The tangent frame of a surface point (SurfacePoint::tangent) from the directions in which u and v grow, dp/du and
+// dp/dv (either may be of any length), and the surface's outward unit shading normal: dp/du made perpendicular to
+// the normal (Gram-Schmidt) and normalised, and the handedness, on which side of normal x tangent dp/dv lies (as
+// MikkTSpace defines it). Both turned on a back face. Left zero where dp/du is zero, along the normal, or not finite.
+template <class T>
+PT_HD inline void set_tangent_frame(SurfacePoint<T>& at, const Vec3<T>& outward, const Vec3<T>& dpdu, const Vec3<T>& dpdv) {
+  const Vec3<T> along = dpdu - dot(dpdu, outward) * outward;
+  const T length2 = length_squared(along);
+  if (!(length2 > T(0)) || !is_finite(length2)) return;
+  const Vec3<T> tangent = along / sqrt(length2);
+  const T handedness = dot(cross(outward, tangent), dpdv) < T(0) ? T(-1) : T(1);
+  at.tangent = at.front_face ? tangent : -tangent;
+  at.handedness = at.front_face ? handedness : -handedness;
+}
+
+// A triangle's dp/du and dp/dv from its edges and the uv differences along them: p - p0 = a e1 + b e2 and
+// (u, v) - (u0, v0) = a (du1, dv1) + b (du2, dv2), solved for dp/du and dp/dv. Both are returned times det =
+// du1 dv2 - du2 dv1 and its sign (|det| times the derivatives): only their directions are used, and no division
+// by a det near zero can overflow. False where det is zero (the uvs are collinear or equal: no frame).
+template <class T>
+PT_HD inline bool triangle_uv_derivatives(const Vec3<T>& edge1, const Vec3<T>& edge2, const T* us, const T* vs, Vec3<T>& dpdu, Vec3<T>& dpdv) {
+  const T du1 = us[1] - us[0], du2 = us[2] - us[0];
+  const T dv1 = vs[1] - vs[0], dv2 = vs[2] - vs[0];
+  const T det = du1 * dv2 - du2 * dv1;
+  if (!(det != T(0))) return false;
+  const T sign = det < T(0) ? T(-1) : T(1);
+  dpdu = sign * (dv2 * edge1 - dv1 * edge2);
+  dpdv = sign * (du1 * edge2 - du2 * edge1);
+  return true;
+}
+
 // Full description of the closest hit. With needs_uv false the texture coordinates of spheres are left at 0
-// (the material's textures do not read them); those of triangles and quads cost nothing and are always set.
+// (the material's textures do not read them); those of triangles and quads cost nothing and are always set. The
+// tangent frame is worked out only with needs_tangent (a normal map reads it: material_needs_tangent).
 // The material a hit is shaded with: the primitive's, or for a mesh instance without one, the triangle's.
 template <class T>
 PT_HD inline u32 material_of_hit(const Primitive<T>& primitive, const MeshData<T>& meshes, const Hit<T>& hit) {
@@ -349,11 +387,13 @@ template <class T>
 struct TriangleSurface {
   Vec3<T> p, geometric, error, shading;
   T u, v;
+  Vec3<T> dpdu, dpdv;  // where asked for and known (else zero): the directions of growing u and v, any length
 };
 
 template <class T>
 PT_HD inline TriangleSurface<T> triangle_surface(const Vec3<T>& p0, const Vec3<T>& edge1, const Vec3<T>& edge2, const Hit<T>& hit,
-                                                 const Vec3<T>* normals, const T* us, const T* vs) {
+                                                 const Vec3<T>* normals, const T* us, const T* vs, bool needs_tangent = false,
+                                                 const MeshTangent<T>* tangents = nullptr) {
   TriangleSurface<T> s;
   const Vec3<T> area_normal = cross(edge1, edge2);
   const T twice_area = length(area_normal);
@@ -381,19 +421,30 @@ PT_HD inline TriangleSurface<T> triangle_surface(const Vec3<T>& p0, const Vec3<T
     s.u = b0 * us[0] + hit.b1 * us[1] + hit.b2 * us[2];
     s.v = b0 * vs[0] + hit.b1 * vs[1] + hit.b2 * vs[2];
   }
+  if (needs_tangent) {
+    if (tangents) {
+      // The file's tangents, interpolated; the bitangent's sign from the vertices' (the same at the three in any
+      // file that MikkTSpace or glTF exporters wrote).
+      s.dpdu = b0 * tangents[0].direction + hit.b1 * tangents[1].direction + hit.b2 * tangents[2].direction;
+      const T sign = b0 * tangents[0].sign + hit.b1 * tangents[1].sign + hit.b2 * tangents[2].sign;
+      s.dpdv = (sign < T(0) ? T(-1) : T(1)) * cross(s.shading, s.dpdu);
+    } else if (us && !triangle_uv_derivatives(edge1, edge2, us, vs, s.dpdu, s.dpdv)) {
+      s.dpdu = s.dpdv = Vec3<T>{};
+    }
+  }
   return s;
 }
 
 template <class T>
 PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const TriangleAttributes<T>* triangle_attributes, const MeshData<T>& meshes,
-                                          const Ray<T>& ray, const Hit<T>& hit, bool needs_uv = true) {
+                                          const Ray<T>& ray, const Hit<T>& hit, bool needs_uv = true, bool needs_tangent = false) {
   struct Describe {
     const TriangleAttributes<T>* attributes;
     const MeshData<T>& meshes;
     const Ray<T>& ray;
     const Hit<T>& hit;
     SurfacePoint<T>& at;
-    bool needs_uv;
+    bool needs_uv, needs_tangent;
 
     PT_HD void sphere(const Vec3<T>& center, T radius) const {
       // Re-projected onto the sphere, the point's error is that of the centre and the radius, however long the ray.
@@ -406,6 +457,12 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       set_spawn_offset(at, outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);
+      // u grows as atan2(z, x) falls (sphere_uv), v towards +y: dp/du is along (z, 0, -x), and dp/dv along
+      // outward x dp/du. No frame at the poles.
+      if (needs_tangent) {
+        const Vec3<T> dpdu{outward.z, T(0), -outward.x};
+        set_tangent_frame(at, outward, dpdu, cross(outward, dpdu));
+      }
     }
     PT_HD void operator()(const Sphere<T>& s) const { sphere(s.center, s.radius); }
     PT_HD void operator()(const MovingSphere<T>& s) const { sphere(moving_sphere_center(s, ray.time), s.radius); }
@@ -418,7 +475,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       if (a && a->has_uvs)
         for (int k = 0; k < 3; ++k) us[k] = a->u[k], vs[k] = a->v[k];
       const TriangleSurface<T> s = triangle_surface(tri.p0, tri.edge1, tri.edge2, hit, a && a->has_normals ? normals : nullptr,
-                                                    a && a->has_uvs ? us : nullptr, vs);
+                                                    a && a->has_uvs ? us : nullptr, vs, needs_tangent);
       set_triangle_point(s, s.geometric, s.shading);
     }
     PT_HD void operator()(const MeshInstance<T>& instance) const {
@@ -427,7 +484,10 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       const Vec3<T>& p0 = meshes.positions[mesh.first_vertex + tri.vertex[0]];
       Vec3<T> normals[3];
       T us[3], vs[3];
+      MeshTangent<T> tangents[3];
+      const bool vertex_tangents = needs_tangent && mesh.first_tangent != kNoAttributes;
       for (int k = 0; k < 3; ++k) {
+        if (vertex_tangents) tangents[k] = meshes.tangents[mesh.first_tangent + tri.vertex[k]];
         if (mesh.first_normal != kNoAttributes) normals[k] = meshes.normals[mesh.first_normal + tri.vertex[k]];
         if (mesh.first_uv != kNoAttributes) {
           const MeshUv<T>& uv = meshes.uvs[mesh.first_uv + tri.vertex[k]];
@@ -436,7 +496,8 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
         }
       }
       TriangleSurface<T> s = triangle_surface(p0, meshes.positions[mesh.first_vertex + tri.vertex[1]] - p0, meshes.positions[mesh.first_vertex + tri.vertex[2]] - p0,
-                                              hit, mesh.first_normal != kNoAttributes ? normals : nullptr, mesh.first_uv != kNoAttributes ? us : nullptr, vs);
+                                              hit, mesh.first_normal != kNoAttributes ? normals : nullptr, mesh.first_uv != kNoAttributes ? us : nullptr, vs,
+                                              needs_tangent, vertex_tangents ? tangents : nullptr);
       if (instance.transform == kNoTransform) return set_triangle_point(s, s.geometric, s.shading);
       // Brought to the world: the point's error bound grows by the map's absolute rows, plus the rounding of the map
       // itself, counted twice: once here and once where a new ray is taken back into the mesh's space.
@@ -453,6 +514,9 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
         if (len2 > T(0)) shading = turned / sqrt(len2);
         if (dot(shading, geometric) < T(0)) shading = -shading;
       }
+      // dp/du and dp/dv are vectors along the surface: they go by the map itself.
+      s.dpdu = xf.to_world.vector(s.dpdu);
+      s.dpdv = xf.to_world.vector(s.dpdv);
       set_triangle_point(s, geometric, shading);
     }
     PT_HD void set_triangle_point(const TriangleSurface<T>& s, const Vec3<T>& geometric, const Vec3<T>& shading) const {
@@ -462,6 +526,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       at.u = s.u;
       at.v = s.v;
       at.normal = at.front_face ? shading : -shading;
+      if (needs_tangent) set_tangent_frame(at, shading, s.dpdu, s.dpdv);
     }
     PT_HD void operator()(const Quad<T>& q) const {
       // Re-projected onto the quad's plane, the point's error no longer grows with the ray's length; a new test
@@ -471,6 +536,8 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       set_face_normal(at, ray, q.normal);
       at.u = hit.b1;
       at.v = hit.b2;
+      // u and v grow along the quad's edges: u = |u x v| dv x normal, v = |u x v| normal x du (quad_edges).
+      if (needs_tangent) set_tangent_frame(at, q.normal, cross(q.dv, q.normal), cross(q.normal, q.du));
     }
     PT_HD void operator()(const ConstantMedium<T>&) const {
       // Scattering inside a medium has no surface: the phase function ignores normal and texture coordinates, and
@@ -486,7 +553,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
   SurfacePoint<T> at{};
   at.p = ray.at(hit.t);
   at.material = material_of_hit(primitive, meshes, hit);
-  visit(Describe{triangle_attributes, meshes, ray, hit, at, needs_uv}, primitive.shape);
+  visit(Describe{triangle_attributes, meshes, ray, hit, at, needs_uv, needs_tangent}, primitive.shape);
   return at;
 }
 

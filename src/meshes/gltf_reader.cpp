@@ -238,6 +238,7 @@ struct VertexSource {
   std::vector<Vec3d> positions;
   std::vector<Vec3d> normals;                // empty: none, or refused (not unit-length-able)
   std::vector<std::array<double, 2>> uvs;    // empty: none
+  std::vector<std::array<double, 4>> tangents;  // empty: none, not asked for (no normal map), or refused
   std::int64_t base = -1;                            // where it starts in the mesh's arrays, once placed there
 };
 
@@ -387,7 +388,19 @@ class Converter {
     if (has_base && has_emissive && base.texCoord != emissive.texCoord)
       warn("uv sets", fmt::format("material {}: its emissive texture is read with TEXCOORD_{}, the base colour texture's set, not TEXCOORD_{}",
                                   material_index, base.texCoord, emissive.texCoord));
-    return has_base ? base.texCoord : has_emissive ? emissive.texCoord : -1;
+    if (has_base || has_emissive) return has_base ? base.texCoord : emissive.texCoord;
+    // A normal texture alone: read with TEXCOORD_0 only (convert_material).
+    return normal_map_only(material_index) ? 0 : -1;
+  }
+
+  // Whether the material's only texture with an image is its normal texture (so that a primitive without texture
+  // coordinates loses the normal map, not its colours).
+  bool normal_map_only(int material_index) const {
+    if (material_index < 0) return false;
+    const tinygltf::Material& material = model_.materials[static_cast<std::size_t>(material_index)];
+    const auto has = [&](int texture) { return texture >= 0 && has_image(texture); };
+    return has(material.normalTexture.index) && material.normalTexture.texCoord == 0 && !has(material.pbrMetallicRoughness.baseColorTexture.index) &&
+           !has(material.emissiveTexture.index);
   }
 
   bool has_image(int texture) const { return model_.textures[static_cast<std::size_t>(texture)].source >= 0; }
@@ -437,7 +450,13 @@ class Converter {
     triangles_ += triangles;
   }
 
-  VertexSource read_vertices(int position, int normal, int uv, int uv_set, const std::string& where) {
+  bool material_has_normal_map(int material_index) const {
+    if (material_index < 0) return false;
+    const tinygltf::NormalTextureInfo& info = model_.materials[static_cast<std::size_t>(material_index)].normalTexture;
+    return info.index >= 0 && has_image(info.index);
+  }
+
+  VertexSource read_vertices(int position, int normal, int uv, int uv_set, int tangent, const std::string& where) {
     VertexSource source;
     const std::string attributes = where + "/attributes";
     const Elements p = elements(position, attributes + "/POSITION", "POSITION", TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT}, false);
@@ -476,6 +495,26 @@ class Converter {
         const double u = t.component(i, 0), v = t.component(i, 1);
         if (!std::isfinite(u) || !std::isfinite(v)) fail(attributes + "/" + name, fmt::format("texture coordinate {} of accessor {} is not finite", i, uv));
         source.uvs[i] = {u, 1 - v};  // glTF's v runs down the image
+      }
+    }
+    if (tangent >= 0 && !source.normals.empty()) {
+      // xyz along increasing u, w = +-1 the bitangent's sign. Flipping v above turns the direction of increasing v,
+      // not the bitangent glTF defines (w normal x xyz, up the image): the tangents are kept as written.
+      const Elements t = elements(tangent, attributes + "/TANGENT", "TANGENT", TINYGLTF_TYPE_VEC4, {TINYGLTF_COMPONENT_TYPE_FLOAT}, false);
+      if (t.count != p.count) fail(attributes + "/TANGENT", fmt::format("accessor {} has {} tangents for {} positions", tangent, t.count, p.count));
+      source.tangents.resize(t.count);
+      std::size_t bad = 0;
+      for (std::size_t i = 0; i < t.count; ++i) {
+        const Vec3d v{t.component(i, 0), t.component(i, 1), t.component(i, 2)};
+        const double w = t.component(i, 3), l = length(v);
+        if (!std::isfinite(l) || l < 1e-12 || !std::isfinite(w) || w == 0) ++bad;
+        else source.tangents[i] = {v.x / l, v.y / l, v.z / l, w < 0 ? -1.0 : 1.0};
+      }
+      if (bad > 0) {
+        source.tangents.clear();
+        warn("bad tangents", fmt::format("{}/TANGENT: {} of the {} tangents of accessor {} are zero or not finite, or have w = 0: primitives with "
+                                         "such tangents (this is the first) derive theirs from their texture coordinates",
+                                         attributes, bad, t.count, tangent));
       }
     }
     return source;
@@ -561,7 +600,19 @@ class Converter {
                                 path, out.name));
     if (pbr.metallicRoughnessTexture.index >= 0)
       out.metallic_roughness_texture = texture(pbr.metallicRoughnessTexture.index, path + "/pbrMetallicRoughness/metallicRoughnessTexture");
-    if (material.normalTexture.index >= 0) warn("normal texture", "normal textures are not applied: surfaces are shaded with their vertex normals");
+    if (material.normalTexture.index >= 0 && has_image(material.normalTexture.index)) {
+      const std::string at = path + "/normalTexture";
+      if (material.normalTexture.texCoord != 0) {
+        warn("normal uv set", fmt::format("{}: normal textures read with a texture coordinate set other than TEXCOORD_0 (here TEXCOORD_{}) are not applied",
+                                          at, material.normalTexture.texCoord));
+      } else if (uv_set(index) != 0) {
+        warn("normal uv set", fmt::format("{}: the normal texture reads TEXCOORD_0 but the material's other textures TEXCOORD_{}: it is not applied",
+                                          at, uv_set(index)));
+      } else {
+        out.normal_texture = texture(material.normalTexture.index, at);
+        out.normal_scale = material.normalTexture.scale;
+      }
+    }
     return out;
   }
 
@@ -631,7 +682,7 @@ class Converter {
       std::vector<std::array<u32, 3>> triangles;
     };
     std::vector<Part> parts;
-    std::map<std::tuple<int, int, int>, std::size_t> source_of;
+    std::map<std::tuple<int, int, int, int>, std::size_t> source_of;
     std::vector<VertexSource> sources;
     for (std::size_t k = 0; k < mesh.primitives.size(); ++k) {
       const tinygltf::Primitive& primitive = mesh.primitives[k];
@@ -656,22 +707,29 @@ class Converter {
       int uv = -1;
       if (set >= 0) {
         uv = attribute(fmt::format("TEXCOORD_{}", set));
-        if (uv < 0) fail(where, fmt::format("material {} reads its textures with TEXCOORD_{}, which the primitive does not have", primitive.material, set));
+        if (uv < 0 && normal_map_only(primitive.material))
+          warn("normal map without uvs", fmt::format("{}: a primitive without TEXCOORD_0 is drawn without its material's normal texture", where));
+        else if (uv < 0)
+          fail(where, fmt::format("material {} reads its textures with TEXCOORD_{}, which the primitive does not have", primitive.material, set));
       }
       const int normal = attribute("NORMAL");
-      const auto key = std::make_tuple(position, normal, uv);
+      // Tangents serve normal maps only, and glTF ignores them where a primitive has no normals.
+      const int tangent = normal >= 0 && material_has_normal_map(primitive.material) ? attribute("TANGENT") : -1;
+      const auto key = std::make_tuple(position, normal, uv, tangent);
       auto found = source_of.find(key);
       if (found == source_of.end()) {
-        sources.push_back(read_vertices(position, normal, uv, set, where));
+        sources.push_back(read_vertices(position, normal, uv, set, tangent, where));
         found = source_of.emplace(key, sources.size() - 1).first;
       }
       parts.push_back(Part{where, found->second, material_index_.at(primitive.material),
                            read_triangles(primitive, sources[found->second].positions.size(), where)});
     }
-    bool normals = false, uvs = false;
+    bool normals = false, uvs = false, tangents = !parts.empty();
     for (const Part& part : parts) {
       normals = normals || !sources[part.source].normals.empty();
       uvs = uvs || !sources[part.source].uvs.empty();
+      // A mesh keeps vertex tangents only where every part has them; the others derive theirs from the uvs.
+      tangents = tangents && !sources[part.source].tangents.empty() && !sources[part.source].normals.empty();
     }
     // Materials per triangle, unless every triangle has the first.
     bool per_triangle_materials = false;
@@ -699,6 +757,7 @@ class Converter {
           source.base = static_cast<std::int64_t>(out.positions.size());
           out.positions.insert(out.positions.end(), source.positions.begin(), source.positions.end());
           if (normals) out.normals.insert(out.normals.end(), source.normals.begin(), source.normals.end());
+          if (tangents) out.tangents.insert(out.tangents.end(), source.tangents.begin(), source.tangents.end());
           if (uvs) {
             if (source.uvs.empty()) out.uvs.resize(out.uvs.size() + source.positions.size(), {0, 0});
             else out.uvs.insert(out.uvs.end(), source.uvs.begin(), source.uvs.end());

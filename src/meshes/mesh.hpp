@@ -24,6 +24,8 @@ struct MeshMaterial {
   i32 emission_texture = -1;
   double metallic = 0, roughness = 1;
   i32 metallic_roughness_texture = -1;  // glTF's: roughness in green, metallic in blue, linear bytes; or -1
+  i32 normal_texture = -1;              // a tangent-space normal map (linear bytes, +Y up), or -1
+  double normal_scale = 1;              // multiplies the normal map's x and y
   // Whether the surface is shaded with the metallic-roughness model (glTF always; OBJ where its MTL says anything
   // about metal, roughness or specular highlights), or as a plain diffuse reflector of the base colour (files that
   // only give a colour: PLY, OBJ with Kd alone), as they were before the model existed.
@@ -37,6 +39,8 @@ struct TriangleMesh {
   std::vector<Vec3d> positions;
   std::vector<Vec3d> normals;                  // empty, or one per position (unit length)
   std::vector<std::array<double, 2>> uvs;      // empty, or one per position (v up, as OBJ and PLY write it)
+  std::vector<std::array<double, 4>> tangents; // empty, or one per position where there are normals: glTF's TANGENT,
+                                               // xyz along increasing u, w the bitangent's sign (w normal x xyz)
   std::vector<std::array<u32, 3>> triangles;   // counter-clockwise seen from the front, indices into the vertex arrays
   std::vector<u32> materials;                  // empty (every triangle uses material 0), or one per triangle:
                                                // an index into MeshFile::materials

@@ -160,6 +160,8 @@ struct MaterialSource {
   std::filesystem::path library;  // the MTL file; textures are found relative to its folder
   u64 line = 0;                   // of its newmtl statement
   bool has_kd = false, has_ke = false, has_pr = false, has_pm = false;
+  // The lines of its texture statements that messages name (0: not given).
+  u64 norm_line = 0, bump_line = 0, map_pm_line = 0, map_pr_line = 0;
 };
 
 // Reads the MTL libraries an OBJ file names, relative to its folder, through the checked input. A library that
@@ -245,6 +247,10 @@ class MaterialLibraries : public tinyobj::MaterialReader {
         else if (keyword == "Ke") current->has_ke = true;
         else if (keyword == "Pr") current->has_pr = true;
         else if (keyword == "Pm") current->has_pm = true;
+        else if (keyword == "norm") current->norm_line = lines.number();
+        else if (keyword == "map_Bump" || keyword == "map_bump" || keyword == "bump") current->bump_line = lines.number();
+        else if (keyword == "map_Pm") current->map_pm_line = lines.number();
+        else if (keyword == "map_Pr") current->map_pr_line = lines.number();
       }
     }
     return sources;
@@ -705,15 +711,108 @@ class ObjReader {
     }
     material.base_color_texture = texture(from.diffuse_texname, from.diffuse_texopt, "map_Kd", source, where, unrendered, from.name);
     material.emission_texture = texture(from.emissive_texname, from.emissive_texopt, "map_Ke", source, where, unrendered, from.name);
+    read_metallic_roughness_maps(from, source, unrendered, material);
+    read_normal_map(from, source, unrendered, material);
+    // A normal map or a metallic or roughness map asks for more than a diffuse colour, as Pm and Pr do.
+    if (material.normal_texture >= 0 || material.metallic_roughness_texture >= 0) material.metallic_roughness_model = true;
 
-    if (!from.bump_texname.empty() || !from.normal_texname.empty() || !from.displacement_texname.empty())
-      unrendered["bump, normal and displacement maps are not rendered"].push_back(from.name);
+    if (!from.displacement_texname.empty()) unrendered["displacement maps (disp) are not rendered"].push_back(from.name);
     if (from.dissolve < 1 || !from.alpha_texname.empty()) unrendered["transparency (d, Tr, map_d) is not rendered"].push_back(from.name);
-    if (!from.roughness_texname.empty() || !from.metallic_texname.empty()) unrendered["roughness and metallic textures (map_Pr, map_Pm) are not rendered"].push_back(from.name);
     if (!from.specular_texname.empty()) unrendered["specular maps (map_Ks) are not rendered"].push_back(from.name);
     if (specular && !source.has_pm)
       unrendered["specular highlights (Ks) take a dielectric's reflectance (F0 = 0.04), not the colour Ks gives"].push_back(from.name);
     return material;
+  }
+
+  // A statement's place for messages: the library, the statement's line (or the material's where it is not known)
+  // and the material.
+  static std::string statement_place(const MaterialSource& source, u64 line, const std::string& material) {
+    const u64 at = line > 0 ? line : source.line;
+    return at > 0 ? fmt::format("{}: line {}: material '{}'", source.library.filename().string(), at, clip(material))
+                  : fmt::format("{}: material '{}'", source.library.filename().string(), clip(material));
+  }
+
+  // The PBR extension's metallic and roughness maps (map_Pm, map_Pr), each a greyscale image (its red channel is
+  // read, or the one -imfchan r, g or b names), combined here into one texture of glTF's layout: roughness in green,
+  // metallic in blue, read as linear data. Images of different sizes are sampled at the nearest texel onto the larger
+  // width and the larger height. A constant Pm or Pr given with its map multiplies it, as Kd multiplies map_Kd;
+  // without the constant the map is taken as it is; without a map the constant stands alone (a full channel times it).
+  void read_metallic_roughness_maps(const tinyobj::material_t& from, const MaterialSource& source, std::map<std::string, std::vector<std::string>>& unrendered,
+                                    MeshMaterial& material) {
+    if (from.metallic_texname.empty() && from.roughness_texname.empty()) return;
+    const i32 metallic = texture(from.metallic_texname, from.metallic_texopt, "map_Pm", source, statement_place(source, source.map_pm_line, from.name),
+                                 unrendered, from.name);
+    const i32 roughness = texture(from.roughness_texname, from.roughness_texopt, "map_Pr", source, statement_place(source, source.map_pr_line, from.name),
+                                  unrendered, from.name);
+    const auto channel = [](const tinyobj::texture_option_t& options) { return options.imfchan == 'g' ? 1 : options.imfchan == 'b' ? 2 : 0; };
+    const std::array<int, 4> key{metallic, channel(from.metallic_texopt), roughness, channel(from.roughness_texopt)};
+    if (const auto found = combined_.find(key); found != combined_.end()) {
+      material.metallic_roughness_texture = found->second;
+    } else {
+      const TextureImage* m = metallic >= 0 ? &out_.textures[static_cast<std::size_t>(metallic)] : nullptr;
+      const TextureImage* r = roughness >= 0 ? &out_.textures[static_cast<std::size_t>(roughness)] : nullptr;
+      TextureImage packed;
+      packed.width = std::max(m ? m->width : 0u, r ? r->width : 0u);
+      packed.height = std::max(m ? m->height : 0u, r ? r->height : 0u);
+      packed.srgb.assign(3 * static_cast<std::size_t>(packed.width) * packed.height, 255);
+      const auto sample = [&](const TextureImage& image, int c, u32 x, u32 y) {
+        const u64 sx = u64{x} * image.width / packed.width, sy = u64{y} * image.height / packed.height;
+        return image.srgb[3 * (sy * image.width + sx) + static_cast<u64>(c)];
+      };
+      for (u32 y = 0; y < packed.height; ++y)
+        for (u32 x = 0; x < packed.width; ++x) {
+          u8* texel = &packed.srgb[3 * (static_cast<std::size_t>(y) * packed.width + x)];
+          texel[0] = 0;
+          if (r) texel[1] = sample(*r, key[3], x, y);
+          if (m) texel[2] = sample(*m, key[1], x, y);
+        }
+      out_.textures.push_back(std::move(packed));
+      material.metallic_roughness_texture = static_cast<i32>(out_.textures.size() - 1);
+      combined_.emplace(key, material.metallic_roughness_texture);
+    }
+    if (metallic >= 0 && !source.has_pm) material.metallic = 1;
+    if (roughness >= 0 && !source.has_pr) material.roughness = 1;
+  }
+
+  // A tangent-space normal map: `norm` (the PBR extension's), or `map_Bump`/`bump` where the image is one. Many
+  // exporters (Blender's among them) write normal maps as map_Bump; a height map there is not rendered (bump
+  // mapping is not implemented), with a warning naming its line. -bm scales the map's x and y (Blender writes its
+  // normal map strength there).
+  void read_normal_map(const tinyobj::material_t& from, const MaterialSource& source, std::map<std::string, std::vector<std::string>>& unrendered,
+                       MeshMaterial& material) {
+    if (!from.normal_texname.empty()) {
+      material.normal_texture = texture(from.normal_texname, from.normal_texopt, "norm", source, statement_place(source, source.norm_line, from.name),
+                                        unrendered, from.name);
+      material.normal_scale = from.normal_texopt.bump_multiplier;
+      if (!from.bump_texname.empty()) unrendered["bump maps given beside a normal map (norm) are not rendered"].push_back(from.name);
+      return;
+    }
+    if (from.bump_texname.empty()) return;
+    const std::string place = statement_place(source, source.bump_line, from.name);
+    const i32 image = texture(from.bump_texname, from.bump_texopt, "map_Bump", source, place, unrendered, from.name);
+    // -imfchan other than the default 'l' picks one channel: a height map by its own account.
+    if (from.bump_texopt.imfchan == 'l' && is_normal_map(out_.textures[static_cast<std::size_t>(image)])) {
+      material.normal_texture = image;
+      material.normal_scale = from.bump_texopt.bump_multiplier;
+      return;
+    }
+    warnings_.push_back(fmt::format("{}: bump map '{}' is a height map, not a tangent-space normal map: height maps are not rendered", place,
+                                    clip(from.bump_texname)));
+  }
+
+  // Whether an image holds tangent-space normals: not grey (a height map is), and most texels, read as 2c - 1, of
+  // nearly unit length and pointing out of the surface (blue above one half).
+  static bool is_normal_map(const TextureImage& image) {
+    const std::size_t texels = image.srgb.size() / 3;
+    std::size_t grey = 0, unit = 0;
+    for (std::size_t i = 0; i < texels; ++i) {
+      const u8* c = &image.srgb[3 * i];
+      if (c[0] == c[1] && c[1] == c[2]) ++grey;
+      const double x = c[0] / 127.5 - 1, y = c[1] / 127.5 - 1, z = c[2] / 127.5 - 1;
+      const double length2 = x * x + y * y + z * z;
+      if (z > 0 && length2 > 0.64 && length2 < 1.44) ++unit;
+    }
+    return texels > 0 && grey < texels && unit >= texels * 9 / 10;
   }
 
   i32 texture(const std::string& name, const tinyobj::texture_option_t& options, std::string_view statement, const MaterialSource& source,
@@ -748,6 +847,7 @@ class ObjReader {
   std::vector<std::string> warnings_;
   std::vector<std::vector<int>> material_ids_;  // per mesh, per triangle: tinyobjloader's material, or -1
   std::map<std::string, i32> textures_;
+  std::map<std::array<int, 4>, i32> combined_;  // metallic and roughness images (and channels) -> their packed texture
 };
 
 }  // namespace

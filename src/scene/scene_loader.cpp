@@ -470,7 +470,7 @@ class SceneReader {
       return add_material(Isotropic<double>{read_colour_or_texture(n, "albedo")}, n.pointer());
     }
     if (type == "metallic_roughness") {
-      n.allow_keys({"type", "base_color", "texture", "metallic", "roughness", "metallic_roughness_texture"});
+      n.allow_keys({"type", "base_color", "texture", "metallic", "roughness", "metallic_roughness_texture", "normal_map", "normal_scale"});
       const u32 base = read_colour_or_texture(n, "base_color");
       const double metallic = n.has("metallic") ? n.child("metallic").number_in(0, 1) : 0.0;
       const double roughness = n.has("roughness") ? n.child("roughness").number_in(0, 1) : 0.5;
@@ -488,7 +488,18 @@ class SceneReader {
       } else {
         factors = add_texture(SolidTexture<double>{{0, roughness, metallic}}, n.pointer());
       }
-      return add_material(MetallicRoughness<double>{base, factors}, n.pointer());
+      u32 normal_map = kNoNormalMap;
+      if (n.has("normal_map")) {
+        // A tangent-space normal map (glTF's normalTexture): an image file, its bytes read as linear data.
+        const Node map = n.child("normal_map");
+        const std::string name = map.string();
+        if (name.empty()) map.fail("the normal map's file name is empty");
+        const ImageRef image = load_image(map, name);
+        normal_map = add_texture(ImageTexture<double>{image.width, image.height, image.offset, 1.0, {1, 1, 1}, 1}, map.pointer());
+      }
+      if (n.has("normal_scale") && !n.has("normal_map")) n.child("normal_scale").fail("'normal_scale' needs a 'normal_map'");
+      const double normal_scale = n.has("normal_scale") ? n.child("normal_scale").number_in(-100, 100) : 1.0;
+      return add_material(MetallicRoughness<double>{base, factors, normal_map, normal_scale}, n.pointer());
     }
     n.child("type").fail(
         fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light, isotropic or metallic_roughness)", type));
@@ -685,6 +696,14 @@ u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file,
     std::get<ImageTexture<double>>(scene.textures[index]).linear = 1;
     return index;
   };
+  // A normal map: the file's image read as linear data, unscaled (normal_scale is the material's).
+  auto normal_map = [&](const MeshMaterial& m) {
+    const i32 texture = m.normal_texture;
+    if (texture < 0 || static_cast<std::size_t>(texture) >= file->textures.size()) return kNoNormalMap;
+    const u32 index = colour(Vec3d{1, 1, 1}, texture);
+    std::get<ImageTexture<double>>(scene.textures[index]).linear = 1;
+    return index;
+  };
   for (const MeshMaterial& m : file->materials) {
     // Emissive surfaces become lights (which do not also reflect); the others reflect by the metallic-roughness
     // model, or diffusely where the file gives only a colour (MeshMaterial::metallic_roughness_model).
@@ -692,7 +711,8 @@ u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file,
     if (emits)
       scene.materials.push_back(DiffuseLight<double>{colour(m.emission, m.emission_texture)});
     else if (m.metallic_roughness_model)
-      scene.materials.push_back(MetallicRoughness<double>{colour(m.base_color, m.base_color_texture), metallic_roughness(m)});
+      scene.materials.push_back(
+          MetallicRoughness<double>{colour(m.base_color, m.base_color_texture), metallic_roughness(m), normal_map(m), m.normal_scale});
     else
       scene.materials.push_back(Lambertian<double>{colour(m.base_color, m.base_color_texture)});
     scene.written.materials.push_back(pointer);
