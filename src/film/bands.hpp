@@ -1,0 +1,41 @@
+// Bands of an image's rows handed out to several renderers as each becomes free: the one scheduler behind the
+// devices of one process and the processes of an MPI run (docs/distributed.md).
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <string>
+
+#include "kernel/integrator.hpp"
+
+namespace pt {
+
+// Samples [first_sample, first_sample + sample_count) of every pixel of rows [first_row, first_row + row_count).
+struct BandWork {
+  u32 first_row = 0, row_count = 0;
+  u32 first_sample = 0, sample_count = 0;
+};
+
+// Something that renders bands: a device's backend in this process, or another process of an MPI run.
+class BandWorker {
+ public:
+  virtual ~BandWorker() = default;
+  virtual std::string name() const = 0;
+  // Adds the samples of `work` to `band`, the film of its rows (row-major, the band's first row first): each pixel
+  // goes on from the sums it holds, in sample order, so the result does not depend on which worker renders it.
+  virtual void render_band(const BandWork& work, std::span<FilmPixel> band) = 0;
+};
+
+// Rows a band of `height` rows shared by `workers` should have. One worker takes them all in one band (one
+// launch, as without bands); several take four bands each on average, so that a worker that finishes early takes
+// more and the last band of a pass is a small part of it, while each band stays large enough to fill a GPU.
+u32 band_rows_for(u32 height, std::size_t workers);
+
+// Renders `work` in bands of `band_rows` rows, handed out in order to whichever worker is free: one host thread
+// drives each worker (none when there is one), taking the next band as soon as it has finished one. `film` holds
+// the rows of `work`, `width` pixels each. Adds to shares[i] the pixel-samples that workers[i] rendered. After a
+// failure no more bands are handed out; the first error is rethrown once every worker has stopped.
+void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 band_rows,
+                  std::span<u64> shares);
+
+}  // namespace pt
