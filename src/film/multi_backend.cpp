@@ -34,6 +34,7 @@ MultiBackend<T>::MultiBackend(std::vector<std::unique_ptr<RenderBackend<T>>> dev
   if (workers_.empty()) throw BackendError("no device to render on");
   for (auto& worker : workers_) worker_pointers_.push_back(worker.get());
   shares_.assign(workers_.size(), 0);
+  alone_ = devices_.size() == 1 && workers_.size() == 1;
 }
 
 template <class T>
@@ -56,13 +57,16 @@ void MultiBackend<T>::upload(const FlatScene<T>& scene) {
   for (auto& upload : uploads) upload.get();
   width_ = scene.params.width;
   height_ = scene.params.height;
-  film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
+  if (alone_) film_.clear();
+  else film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
   std::fill(shares_.begin(), shares_.end(), 0);
 }
 
 template <class T>
 void MultiBackend<T>::render(u32 first_sample, u32 sample_count) {
-  render_rows(0, height_, first_sample, sample_count, film_);
+  if (!alone_) return render_rows(0, height_, first_sample, sample_count, film_);
+  devices_[0]->render(first_sample, sample_count);
+  shares_[0] += static_cast<u64>(width_) * height_ * sample_count;
 }
 
 template <class T>
@@ -73,9 +77,34 @@ void MultiBackend<T>::render_rows(u32 first_row, u32 row_count, u32 first_sample
 }
 
 template <class T>
+void MultiBackend<T>::read_film(std::vector<FilmPixel>& pixels) {
+  if (alone_) devices_[0]->read_film(pixels);
+  else pixels = film_;
+}
+
+template <class T>
 void MultiBackend<T>::write_film(std::span<const FilmPixel> pixels) {
+  if (alone_) return devices_[0]->write_film(pixels);
   if (pixels.size() != film_.size()) throw BackendError("a film of another size cannot be resumed");
   std::copy(pixels.begin(), pixels.end(), film_.begin());
+}
+
+template <class T>
+std::span<const FilmPixel> MultiBackend<T>::film_on_host(std::vector<FilmPixel>& copy) {
+  if (alone_) return devices_[0]->film_on_host(copy);
+  return film_;
+}
+
+template <class T>
+std::optional<double> MultiBackend<T>::device_seconds() const {
+  if (alone_) return devices_[0]->device_seconds();
+  return std::nullopt;
+}
+
+template <class T>
+std::vector<std::pair<std::string, double>> MultiBackend<T>::stage_seconds() const {
+  if (alone_) return devices_[0]->stage_seconds();
+  return {};
 }
 
 template <class T>

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -26,9 +27,11 @@ class MultiBackend final : public RenderBackend<T> {
   void upload(const FlatScene<T>& scene) override;
   void render(u32 first_sample, u32 sample_count) override;
   void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) override;
-  void read_film(std::vector<FilmPixel>& pixels) override { pixels = film_; }
+  void read_film(std::vector<FilmPixel>& pixels) override;
   void write_film(std::span<const FilmPixel> pixels) override;
-  std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>&) override { return film_; }
+  std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) override;
+  std::optional<double> device_seconds() const override;
+  std::vector<std::pair<std::string, double>> stage_seconds() const override;
   u64 saturations() const override;
   std::vector<std::pair<std::string, u64>> work_shares() const override;
 
@@ -38,7 +41,10 @@ class MultiBackend final : public RenderBackend<T> {
   std::vector<std::unique_ptr<BandWorker>> workers_;  // the devices' first, then the remote ones
   std::vector<BandWorker*> worker_pointers_;
   std::vector<u64> shares_;  // pixel-samples each worker rendered since the upload
-  std::vector<FilmPixel> film_;
+  // One device and no one else: nothing to share out, so the film stays on the device and passes go to it whole
+  // (no band copies: `--device all` on a machine of one GPU costs what `--device 0` does).
+  bool alone_ = false;
+  std::vector<FilmPixel> film_;  // the whole image's sums, but when alone
   u32 width_ = 0, height_ = 0;
 };
 
