@@ -6,38 +6,48 @@
 #include <exception>
 #include <mutex>
 #include <thread>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "base/errors.hpp"
 
 namespace pt {
 
-u32 band_rows_for(u32 height, std::size_t workers) {
+u32 min_band_rows(u32 height, std::size_t workers) {
   if (workers <= 1) return std::max(height, 1u);
-  const u64 bands = std::min<u64>(4 * static_cast<u64>(workers), std::max(height, 1u));
-  return static_cast<u32>((height + bands - 1) / bands);
+  return static_cast<u32>(std::max<u64>(1, height / (32 * static_cast<u64>(workers))));
 }
 
-void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 band_rows,
+void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 min_rows,
                   std::span<u64> shares) {
   if (workers.empty()) throw BackendError("no device to render on");
   if (film.size() != static_cast<std::size_t>(width) * work.row_count) throw BackendError("a film of the wrong size for its bands");
   if (work.row_count == 0 || work.sample_count == 0) return;
-  band_rows = std::clamp(band_rows, 1u, work.row_count);
-  const u32 bands = (work.row_count + band_rows - 1) / band_rows;
-  std::atomic<u32> next{0};
+  min_rows = std::clamp(min_rows, 1u, work.row_count);
+  std::mutex cursor_mutex;
+  u32 cursor = 0;  // rows of `work` handed out so far
+  // The next band's first row (within `work`) and rows; no rows once all are out.
+  const auto take = [&]() -> std::pair<u32, u32> {
+    const std::lock_guard lock(cursor_mutex);
+    const u32 left = work.row_count - cursor;
+    const u64 share = (static_cast<u64>(left) + 2 * workers.size() - 1) / (2 * workers.size());
+    const u32 rows = static_cast<u32>(std::min<u64>(left, std::max<u64>(min_rows, share)));
+    const u32 first = cursor;
+    cursor += rows;
+    return {first, rows};
+  };
   std::atomic<bool> failed{false};
   std::exception_ptr first_error;
   std::mutex error_mutex;
   const auto drive = [&](std::size_t w) {
     try {
-      for (u32 band = next++; band < bands && !failed.load(); band = next++) {
+      for (auto [first, rows] = take(); rows > 0 && !failed.load(); std::tie(first, rows) = take()) {
         BandWork part = work;
-        part.first_row = work.first_row + band * band_rows;
-        part.row_count = std::min(band_rows, work.row_count - band * band_rows);
-        const std::size_t offset = static_cast<std::size_t>(band) * band_rows * width;
-        workers[w]->render_band(part, film.subspan(offset, static_cast<std::size_t>(part.row_count) * width));
-        shares[w] += static_cast<u64>(part.row_count) * width * part.sample_count;
+        part.first_row = work.first_row + first;
+        part.row_count = rows;
+        workers[w]->render_band(part, film.subspan(static_cast<std::size_t>(first) * width, static_cast<std::size_t>(rows) * width));
+        shares[w] += static_cast<u64>(rows) * width * part.sample_count;
       }
     } catch (...) {
       const std::lock_guard lock(error_mutex);

@@ -26,16 +26,19 @@ class BandWorker {
   virtual void render_band(const BandWork& work, std::span<FilmPixel> band) = 0;
 };
 
-// Rows a band of `height` rows shared by `workers` should have. One worker takes them all in one band (one
-// launch, as without bands); several take four bands each on average, so that a worker that finishes early takes
-// more and the last band of a pass is a small part of it, while each band stays large enough to fill a GPU.
-u32 band_rows_for(u32 height, std::size_t workers);
+// The smallest band worth handing out when `workers` share `height` rows: one worker takes them all in one band
+// (one launch, as without bands); several take bands that shrink as the rows run out (render_bands), down to this
+// many rows, a 32nd of an even share, so that the wait for the last band of a pass is short while every band
+// stays a launch of many pixels.
+u32 min_band_rows(u32 height, std::size_t workers);
 
-// Renders `work` in bands of `band_rows` rows, handed out in order to whichever worker is free: one host thread
-// drives each worker (none when there is one), taking the next band as soon as it has finished one. `film` holds
-// the rows of `work`, `width` pixels each. Adds to shares[i] the pixel-samples that workers[i] rendered. After a
-// failure no more bands are handed out; the first error is rethrown once every worker has stopped.
-void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 band_rows,
+// Renders `work` in bands handed out in order to whichever worker is free, each half of the remaining rows' even
+// share (guided self-scheduling: large bands first, few messages; small ones last, a short wait at the end), at
+// least `min_rows`: one host thread drives each worker (none when there is one), taking the next band as soon as
+// it has finished one. `film` holds the rows of `work`, `width` pixels each. Adds to shares[i] the pixel-samples
+// that workers[i] rendered. After a failure no more bands are handed out; the first error is rethrown once every
+// worker has stopped.
+void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 min_rows,
                   std::span<u64> shares);
 
 }  // namespace pt

@@ -73,7 +73,7 @@ template <class T>
 void MultiBackend<T>::render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) {
   if (first_row + row_count > height_) throw BackendError("a band of rows outside the image");
   const BandWork work{first_row, row_count, first_sample, sample_count};
-  render_bands(worker_pointers_, width_, work, band, band_rows_for(row_count, workers_.size()), shares_);
+  render_bands(worker_pointers_, width_, work, band, min_band_rows(row_count, workers_.size()), shares_);
 }
 
 template <class T>
