@@ -65,5 +65,23 @@ case "$case" in
     mpi 2 "$pathtracer" render "$scene" "${spp[@]}" -q --resume film.ckpt -o resumed.pfm
     same one.pfm resumed.pfm "stopped, saved and resumed across 2 ranks"
     ;;
+  mpi-interrupt)
+    # mpirun stopped (Ctrl-C or SIGTERM: it sends SIGTERM to every rank): rank 0 stops after the pass under way, saves the
+    # checkpoint and writes the image so far; two ranks resume it to the image of one uninterrupted process.
+    spp=(--width 96 --height 74 --spp 3000 --threads 1)
+    "$pathtracer" render "$scene" "${spp[@]}" -q -o one.pfm
+    "$mpiexec" -np 2 --oversubscribe "$pathtracer" render "$scene" "${spp[@]}" --checkpoint film.ckpt --checkpoint-interval 0.1 \
+      -o part.pfm 2>err.txt &
+    launcher=$!
+    for _ in $(seq 600); do [ -e film.ckpt ] && break; sleep 0.1; done
+    # SIGTERM, which mpirun takes as it takes Ctrl-C: a background job of a script ignores SIGINT.
+    kill -TERM $launcher
+    wait $launcher || true
+    grep -q "stopped by .* after .* of 3000 samples per pixel; film saved to film.ckpt" err.txt ||
+      { cat err.txt; echo "FAIL: the interrupted run did not stop early and save"; exit 1; }
+    [ -e part.pfm ] || { echo "FAIL: no image of the samples done"; exit 1; }
+    mpi 2 "$pathtracer" render "$scene" "${spp[@]}" -q --resume film.ckpt -o resumed.pfm
+    same one.pfm resumed.pfm "interrupted under mpirun, saved by rank 0, resumed across 2 ranks"
+    ;;
   *) echo "unknown case $case"; exit 2 ;;
 esac
