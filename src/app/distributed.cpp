@@ -130,6 +130,10 @@ class RankWorker final : public BandWorker {
     std::memcpy(static_cast<void*>(message_.data()), &work, sizeof(work));
     std::copy(band.begin(), band.end(), message_.begin() + 1);
     send_bytes(message_.data(), message_.size() * sizeof(FilmPixel), rank_, kWork);
+    // Sleep through most of the time the band should take before polling: this thread shares a core with the
+    // renderer of this rank, and thousands of wake-ups a second would slow it. (Where the rows were last rendered
+    // by a slower worker, the sleep runs long; ranks of one kind of device are the case this is for.)
+    std::this_thread::sleep_for(std::chrono::duration<double>(0.8 * work.expected_seconds));
     const MPI_Status reply = probe(rank_);
     if (reply.MPI_TAG == kFailed) throw RemoteError(fmt::format("{}: {}", where_, receive_text(reply)));
     receive_bytes(band.data(), band.size_bytes(), rank_, kBandDone);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -20,18 +21,36 @@ u32 min_band_rows(u32 height, std::size_t workers) {
 }
 
 void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 min_rows,
-                  std::span<u64> shares) {
+                  std::span<u64> shares, std::span<double> row_costs) {
   if (workers.empty()) throw BackendError("no device to render on");
   if (film.size() != static_cast<std::size_t>(width) * work.row_count) throw BackendError("a film of the wrong size for its bands");
   if (work.row_count == 0 || work.sample_count == 0) return;
   min_rows = std::clamp(min_rows, 1u, work.row_count);
+  // The rows' costs as the last pass measured them, summed from the first row of `work` (cost[i]: rows before i);
+  // none where a row has not been measured yet, and the bands are cut by rows instead.
+  std::vector<double> cost;
+  if (row_costs.size() >= static_cast<std::size_t>(work.first_row) + work.row_count) {
+    cost.assign(work.row_count + 1, 0.0);
+    for (u32 i = 0; i < work.row_count && !cost.empty(); ++i) {
+      const double row = row_costs[work.first_row + i];
+      if (row > 0) cost[i + 1] = cost[i] + row;
+      else cost.clear();
+    }
+  }
+  const u64 halves = 2 * static_cast<u64>(workers.size());
   std::mutex cursor_mutex;
   u32 cursor = 0;  // rows of `work` handed out so far
-  // The next band's first row (within `work`) and rows; no rows once all are out.
+  // The next band's first row (within `work`) and rows; no rows once all are out. Half of an even share of what is
+  // left: of its cost where that is known, else of its rows.
   const auto take = [&]() -> std::pair<u32, u32> {
     const std::lock_guard lock(cursor_mutex);
     const u32 left = work.row_count - cursor;
-    const u64 share = (static_cast<u64>(left) + 2 * workers.size() - 1) / (2 * workers.size());
+    u64 share = (static_cast<u64>(left) + halves - 1) / halves;
+    if (!cost.empty()) {
+      const double target = cost[cursor] + (cost[work.row_count] - cost[cursor]) / static_cast<double>(halves);
+      const auto end = std::lower_bound(cost.begin() + cursor + 1, cost.end(), target);
+      share = static_cast<u64>(std::min<std::ptrdiff_t>(end - cost.begin(), work.row_count) - cursor);
+    }
     const u32 rows = static_cast<u32>(std::min<u64>(left, std::max<u64>(min_rows, share)));
     const u32 first = cursor;
     cursor += rows;
@@ -46,8 +65,16 @@ void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
         BandWork part = work;
         part.first_row = work.first_row + first;
         part.row_count = rows;
+        part.expected_seconds = cost.empty() ? 0.0 : (cost[first + rows] - cost[first]) * part.sample_count;
+        const auto start = std::chrono::steady_clock::now();
         workers[w]->render_band(part, film.subspan(static_cast<std::size_t>(first) * width, static_cast<std::size_t>(rows) * width));
         shares[w] += static_cast<u64>(rows) * width * part.sample_count;
+        // Each row of the band is taken to cost the band's mean (a worker writes only its own band's rows).
+        if (!row_costs.empty()) {
+          const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          const double per_row = std::max(seconds, 1e-9) / (static_cast<double>(rows) * part.sample_count);
+          for (u32 r = part.first_row; r < part.first_row + rows && r < row_costs.size(); ++r) row_costs[r] = per_row;
+        }
       }
     } catch (...) {
       const std::lock_guard lock(error_mutex);

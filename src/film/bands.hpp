@@ -14,6 +14,7 @@ namespace pt {
 struct BandWork {
   u32 first_row = 0, row_count = 0;
   u32 first_sample = 0, sample_count = 0;
+  double expected_seconds = 0;  // what its rows took when last rendered, by whichever worker; 0: not known
 };
 
 // Something that renders bands: a device's backend in this process, or another process of an MPI run.
@@ -32,13 +33,16 @@ class BandWorker {
 // stays a launch of many pixels.
 u32 min_band_rows(u32 height, std::size_t workers);
 
-// Renders `work` in bands handed out in order to whichever worker is free, each half of the remaining rows' even
-// share (guided self-scheduling: large bands first, few messages; small ones last, a short wait at the end), at
+// Renders `work` in bands handed out in order to whichever worker is free, each half of an even share of what is
+// left (guided self-scheduling: large bands first, few messages; small ones last, a short wait at the end), at
 // least `min_rows`: one host thread drives each worker (none when there is one), taking the next band as soon as
 // it has finished one. `film` holds the rows of `work`, `width` pixels each. Adds to shares[i] the pixel-samples
-// that workers[i] rendered. After a failure no more bands are handed out; the first error is rethrown once every
-// worker has stopped.
+// that workers[i] rendered. `row_costs`, where given, holds the seconds a sample of each row of the image took
+// when last rendered (0: not yet): bands are then cut to equal shares of cost rather than of rows, since rows of
+// sky cost a fraction of rows of glass and an expensive band handed out early would hold up the end of the pass;
+// each band rendered updates its rows. After a failure no more bands are handed out; the first error is rethrown
+// once every worker has stopped.
 void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 min_rows,
-                  std::span<u64> shares);
+                  std::span<u64> shares, std::span<double> row_costs = {});
 
 }  // namespace pt

@@ -59,6 +59,7 @@ void MultiBackend<T>::upload(const FlatScene<T>& scene) {
   height_ = scene.params.height;
   if (alone_) film_.clear();
   else film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
+  row_costs_.assign(height_, 0.0);
   std::fill(shares_.begin(), shares_.end(), 0);
 }
 
@@ -73,7 +74,7 @@ template <class T>
 void MultiBackend<T>::render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) {
   if (first_row + row_count > height_) throw BackendError("a band of rows outside the image");
   const BandWork work{first_row, row_count, first_sample, sample_count};
-  render_bands(worker_pointers_, width_, work, band, min_band_rows(row_count, workers_.size()), shares_);
+  render_bands(worker_pointers_, width_, work, band, min_band_rows(row_count, workers_.size()), shares_, row_costs_);
 }
 
 template <class T>

@@ -45,6 +45,7 @@ class MultiBackend final : public RenderBackend<T> {
   // (no band copies: `--device all` on a machine of one GPU costs what `--device 0` does).
   bool alone_ = false;
   std::vector<FilmPixel> film_;  // the whole image's sums, but when alone
+  std::vector<double> row_costs_;  // seconds a sample of each row took when last rendered (render_bands)
   u32 width_ = 0, height_ = 0;
 };
 
