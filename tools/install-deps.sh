@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages pathtracer builds with (as root; does nothing when they are all there).
 set -euo pipefail
 packages=(cmake ninja-build g++ libtbb-dev libfmt-dev libcli11-dev nlohmann-json3-dev libstb-dev libopenexr-dev zlib1g-dev
-          libgtest-dev libbenchmark-dev libtinyobjloader-dev libtinygltf-dev assimp-testmodels)
+          libgtest-dev libbenchmark-dev libtinyobjloader-dev libtinygltf-dev assimp-testmodels libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${packages[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
 if [ ${#missing[@]} -gt 0 ]; then

@@ -1,11 +1,15 @@
 // Backend selection by name.
 #include "app/backends.hpp"
 
+#include <algorithm>
+#include <cstdlib>
+
 #include <fmt/format.h>
 #include <tbb/task_arena.h>
 
 #include "backends/cpu/cpu_backend.hpp"
 #include "base/number_formats.hpp"
+#include "film/multi_backend.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif
@@ -64,8 +68,80 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
   }
 }
 
-#define PT_INSTANTIATE_BACKEND(...) \
-  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_backend<__VA_ARGS__>(const std::string&, unsigned, int, Integrator, int);
+namespace {
+
+int gpu_count(const std::string& backend) {
+#if PT_HAVE_CUDA
+  if (backend == "cuda" || backend == "auto") return cuda_device_count();
+#endif
+  (void)backend;
+  return 0;
+}
+
+// The process's rank among those on its node, as the MPI launchers (Open MPI, MPICH) and Slurm tell it.
+int local_rank() {
+  for (const char* name : {"OMPI_COMM_WORLD_LOCAL_RANK", "MPI_LOCALRANKID", "SLURM_LOCALID"})
+    if (const char* value = std::getenv(name)) return std::max(0, std::atoi(value));
+  return 0;
+}
+
+}  // namespace
+
+DeviceList parse_device_list(const std::string& text, const std::string& backend) {
+  const bool cpu_only = backend == "cpu" || (backend == "auto" && gpu_count(backend) == 0);
+  DeviceList list;
+  if (text == "all") {
+    list.several = true;
+    const int gpus = cpu_only ? 0 : gpu_count(backend);
+    if (backend == "sycl") throw InputError("--device all: name the SYCL devices by index (see `pathtracer devices`)");
+    if (gpus == 0) list.entries.push_back(kCpuDevice);
+    for (int g = 0; g < gpus; ++g) list.entries.push_back(g);
+    return list;
+  }
+  if (text == "local-rank") {
+    const int gpus = gpu_count(backend);
+    list.entries.push_back(cpu_only ? kCpuDevice : gpus > 0 ? local_rank() % gpus : local_rank());
+    return list;
+  }
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string entry = text.substr(start, comma - start);
+    if (entry == "cpu") {
+      list.entries.push_back(kCpuDevice);
+    } else if (!entry.empty() && entry.size() <= 4 && entry.find_first_not_of("0123456789") == std::string::npos) {
+      list.entries.push_back(cpu_only ? kCpuDevice : std::atoi(entry.c_str()));
+    } else {
+      throw InputError(fmt::format("--device {}: expected an index, all, cpu, local-rank, or indices and cpu joined by commas", text));
+    }
+    start = comma + 1;
+  }
+  list.several = list.entries.size() > 1;
+  return list;
+}
+
+template <class T>
+std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads,
+                                                      Integrator integrator, int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote) {
+  const auto make_one = [&](int entry, unsigned entry_threads) {
+    if (entry == kCpuDevice) return make_backend<T>("cpu", entry_threads, 0, integrator);
+    return make_backend<T>(backend, entry_threads, entry, integrator, backend == "sycl" ? entry : sycl_device);
+  };
+  if (!devices.several && remote.empty()) return make_one(devices.entries.at(0), threads);
+  // CPU devices share the threads asked for (all cores by default), less one for each GPU's driving thread.
+  const auto cpus = static_cast<unsigned>(std::count(devices.entries.begin(), devices.entries.end(), kCpuDevice));
+  const auto gpus = static_cast<unsigned>(devices.entries.size()) - cpus;
+  const unsigned total = threads != 0 ? threads : static_cast<unsigned>(tbb::this_task_arena::max_concurrency());
+  const unsigned per_cpu = cpus == 0 ? 0 : std::max(1u, (total > gpus ? total - gpus : 1u) / cpus);
+  std::vector<std::unique_ptr<RenderBackend<T>>> made;
+  for (int entry : devices.entries) made.push_back(make_one(entry, entry == kCpuDevice ? per_cpu : threads));
+  return std::make_unique<MultiBackend<T>>(std::move(made), std::move(remote));
+}
+
+#define PT_INSTANTIATE_BACKEND(...)                                                                                                     \
+  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_backend<__VA_ARGS__>(const std::string&, unsigned, int, Integrator, int); \
+  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_render_backend<__VA_ARGS__>(const std::string&, const DeviceList&, unsigned, \
+                                                                                       Integrator, int, std::vector<std::unique_ptr<BandWorker>>);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKEND)
 
 void list_devices() {

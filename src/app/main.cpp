@@ -22,11 +22,13 @@
 #include <fmt/format.h>
 
 #include "app/backends.hpp"
+#include "app/distributed.hpp"
 #include "app/image_size.hpp"
 #include "app/numerics.hpp"
 #include "base/atomic_file.hpp"
 #include "film/checkpoint.hpp"
 #include "film/film.hpp"
+#include "film/multi_backend.hpp"
 #include "base/number_formats.hpp"
 #include "scene/scene_loader.hpp"
 
@@ -49,7 +51,7 @@ struct RenderOptions {
   std::optional<u32> width, height, spp, depth, seed;
   unsigned threads = 0;
   std::string backend = "cpu";
-  int device = 0;
+  std::string device = "0";  // one device, or several (app/backends.hpp, DeviceList)
   int sycl_device = -1;  // SYCL device index; negative: the runtime's default choice
   std::string number_format = "float";
   std::string integrator = "auto";
@@ -174,14 +176,17 @@ class Phases {
 };
 
 // The device starts (a GPU's context creation takes a good part of a second) while the scene loads and flattens.
+// Under MPI (`mpi` given: this is rank 0) the other ranks render bands of the image too, and the film is gathered
+// here, the only rank that writes.
 template <class T>
-int render_with(const RenderOptions& options, Clock::time_point program_start) {
+int render_with(const RenderOptions& options, Clock::time_point program_start, Distributed* mpi) {
   Phases phases;
   double device_seconds = 0;
+  const DeviceList devices = parse_device_list(options.device, options.backend);
   std::future<std::unique_ptr<RenderBackend<T>>> starting = std::async(std::launch::async, [&] {
     const auto start = Clock::now();
-    std::unique_ptr<RenderBackend<T>> made = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
-                                                             options.sycl_device);
+    std::unique_ptr<RenderBackend<T>> made = make_render_backend<T>(options.backend, devices, options.threads, integrator_of(options),
+                                                                    options.sycl_device);
     device_seconds = seconds_since(start);
     return made;
   });
@@ -195,6 +200,13 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
   std::unique_ptr<RenderBackend<T>> backend = starting.get();
   phases.add("device start (overlapped)", device_seconds);
   phases.add("waiting for the device", seconds_since(wait_start));
+  const CheckpointKey key = render_key(options, scene, settings);
+  if (mpi) {
+    std::vector<std::unique_ptr<BandWorker>> remote = phases.time("waiting for the other ranks", [&] { return mpi->gather_workers(key.hash); });
+    std::vector<std::unique_ptr<RenderBackend<T>>> local;
+    local.push_back(std::move(backend));
+    backend = std::make_unique<MultiBackend<T>>(std::move(local), std::move(remote), mpi->where(0));
+  }
   const bool show_progress = !options.quiet && isatty(STDERR_FILENO);
   if (!options.quiet) {
     fmt::print(stderr, "{}: {}x{}, {} spp, depth {}, {} primitives, backend {}, {}\n", scene.source, settings.width, settings.height,
@@ -204,7 +216,6 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
   RenderControl control;
   control.stop_requested = [] { return interrupt_signal.load() != 0; };
   control.time_limit_seconds = options.time_limit;
-  const CheckpointKey key = render_key(options, scene, settings);
   if (!options.checkpoint.empty()) {
     control.checkpoint_interval_seconds = options.checkpoint_interval;
     control.checkpoint = [&](std::span<const FilmPixel> pixels, u32 samples_done) { write_checkpoint(options.checkpoint, key, pixels, samples_done); };
@@ -236,6 +247,10 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
     const RenderStats& s = film.stats;
     fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
                format_rate(s.samples / s.seconds), format_rate(s.rays / s.seconds), s.dropped_samples);
+    const std::vector<std::pair<std::string, u64>> shares = backend->work_shares();
+    u64 all = 0;
+    for (const auto& share : shares) all += share.second;
+    for (const auto& [name, share] : shares) fmt::print(stderr, "  {:5.1f}% of the samples: {}\n", all ? 100.0 * share / all : 0.0, name);
     if (film.stopped_early)
       fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n", caught ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM") : "the time limit",
                  film.samples_done, settings.samples_per_pixel, options.checkpoint.empty() ? "" : fmt::format("; film saved to {}", options.checkpoint));
@@ -246,33 +261,95 @@ int render_with(const RenderOptions& options, Clock::time_point program_start) {
 }
 
 
-int run_render(const RenderOptions& options, Clock::time_point program_start) {
+int run_render(const RenderOptions& options, Clock::time_point program_start, Distributed* mpi = nullptr) {
   // Fail on an unusable output name or place before spending time on the render.
   image_format_for(options.output);
   check_output_path(options.output);
   if (!options.checkpoint.empty()) check_output_path(options.checkpoint);
   catch_interrupts();
-  return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, program_start); });
+  return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, program_start, mpi); });
+}
+
+// A rank other than 0 of an MPI run: loads the scene as rank 0 does, says it is ready, and renders the bands it is
+// sent until rank 0 says the run is over. It prints nothing: its failures go to rank 0, which reports them.
+template <class T>
+void serve_with(const RenderOptions& options, Distributed& mpi) {
+  std::optional<FlatScene<T>> flat;  // kept while the backend renders: the CPU reads the scene's arrays in place
+  std::unique_ptr<RenderBackend<T>> backend;
+  u32 width = 0;
+  try {
+    const SceneDescription scene = load_scene_file(options.scene);
+    const RenderSettings settings = effective_settings(options, scene);
+    flat.emplace(flatten_scene<T>(scene, settings));
+    backend = make_render_backend<T>(options.backend, parse_device_list(options.device, options.backend), options.threads,
+                                     integrator_of(options), options.sycl_device);
+    backend->upload(*flat);
+    width = settings.width;
+    mpi.report_ready(render_key(options, scene, settings).hash, backend->name());
+  } catch (const std::bad_alloc&) {
+    mpi.report_failure("out of memory");
+  } catch (const std::exception& e) {
+    mpi.report_failure(e.what());
+  }
+  mpi.serve(width, [&](const BandWork& work, std::span<FilmPixel> band) {
+    if (!backend) throw BackendError("this rank failed at its start");
+    backend->render_rows(work.first_row, work.row_count, work.first_sample, work.sample_count, band);
+  });
+}
+
+// `render` under an MPI launcher (docs/distributed.md): rank 0 renders with the others and alone writes and
+// reports; any rank's failure is reported once, by rank 0, naming the rank and its host, and nothing is written.
+int run_distributed_render(const RenderOptions& options, Clock::time_point program_start, int& argc, char**& argv) {
+  std::optional<Distributed> mpi;
+  try {
+    mpi.emplace(argc, argv);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "pathtracer: error: {}\n", e.what());
+    return kErrorExitCode;
+  }
+  int status = kErrorExitCode;
+  if (mpi->rank() != 0) {
+    catch_interrupts();  // rank 0 decides when to stop; a second signal still ends a rank at once
+    with_number_format(options.number_format, [&]<class T>() {
+      serve_with<T>(options, *mpi);
+      return 0;
+    });
+    status = 0;
+  } else {
+    try {
+      status = run_render(options, program_start, &*mpi);
+    } catch (const RemoteError& e) {
+      fmt::print(stderr, "pathtracer: error: {}\n", e.what());
+    } catch (const std::bad_alloc&) {
+      fmt::print(stderr, "pathtracer: error: {}: out of memory\n", mpi->where(0));
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "pathtracer: error: {}: {}\n", mpi->where(0), e.what());
+    }
+    mpi->stop_all();
+  }
+  mpi.reset();  // MPI_Finalize: waits for every rank
+  return status;
 }
 
 // Renders the scene `runs` times after a short warm-up and reports the median: the benchmark of BENCHMARKS.md.
 template <class T>
 int bench_with(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
   const FlatScene<T> flat = flatten_scene<T>(scene, settings);
-  std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(options.backend, options.threads, options.device, integrator_of(options),
-                                                              options.sycl_device);
+  std::unique_ptr<RenderBackend<T>> backend = make_render_backend<T>(options.backend, parse_device_list(options.device, options.backend),
+                                                                     options.threads, integrator_of(options), options.sycl_device);
   {
     // Warm-up: module loading, first-touch of memory, thread start-up stay out of the timed runs.
     FlatScene<T> warm = flat;
     warm.samples_per_pixel = 1;
     render_scene(*backend, warm);
   }
-  std::vector<double> seconds;
+  std::vector<double> seconds, wall_seconds;
   RenderStats stats;
   for (u32 run = 0; run < options.runs; ++run) {
     const RenderResult result = render_scene(*backend, flat);
     stats = result.stats;
     seconds.push_back(backend->device_seconds().value_or(result.stats.seconds));
+    wall_seconds.push_back(result.stats.seconds);
     fmt::print(stderr, "run {}: {:.4f} s\n", run + 1, seconds.back());
   }
   std::string stages;
@@ -281,12 +358,15 @@ int bench_with(const RenderOptions& options, const SceneDescription& scene, cons
   std::vector<double> sorted = seconds;
   std::sort(sorted.begin(), sorted.end());
   const double median = sorted[sorted.size() / 2];
+  // The wall clock too, which compares a device's events with paths that have none (several devices in bands).
+  std::sort(wall_seconds.begin(), wall_seconds.end());
+  const double wall_median = wall_seconds[wall_seconds.size() / 2];
   fmt::print("scene {} | {}x{} {} spp depth {} | backend {} | {} | median of {}: {:.4f} s ({} timing) | {}samples/s | {}rays/s | "
-             "{:.2f} rays/sample | dropped {} | scene {:.1f} MB{}\n",
+             "{:.2f} rays/sample | dropped {} | scene {:.1f} MB | wall-clock median {:.4f} s{}\n",
              scene.source, settings.width, settings.height, settings.samples_per_pixel, settings.max_depth, backend->name(),
              options.number_format, options.runs, median, backend->device_seconds() ? "device-event" : "wall-clock",
              format_rate(stats.samples / median), format_rate(stats.rays / median), static_cast<double>(stats.rays) / stats.samples,
-             stats.dropped_samples, flat.bytes() / 1e6, stages);
+             stats.dropped_samples, flat.bytes() / 1e6, wall_median, stages);
   return 0;
 }
 
@@ -338,7 +418,11 @@ int main(int argc, char** argv) {
     command->add_option("--seed", options.seed, "Random seed");
     command->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
     command->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
-    command->add_option("--device", options.device, "GPU index for the cuda backend")->check(CLI::NonNegativeNumber);
+    command->add_option("--device", options.device,
+                        "Device: a GPU index; all (every GPU, or the CPU); local-rank (the GPU of this MPI rank on its node); cpu; or "
+                        "several joined by commas (0,2,3 or 0,cpu; cpu,cpu: CPU devices sharing --threads), rendering one image in bands "
+                        "(docs/distributed.md)")
+        ->capture_default_str();
     command->add_option("--sycl-device", options.sycl_device, "Device index for the sycl backend (see `pathtracer devices`; default: the runtime's choice)")
         ->check(CLI::NonNegativeNumber);
     command->add_option("--integrator", options.integrator, "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
@@ -397,6 +481,7 @@ int main(int argc, char** argv) {
     }
     if (*bench) return run_bench(options);
     if (*numerics) return run_numerics(numerics_options);
+    if (launched_by_mpi()) exit_without_teardown(run_distributed_render(options, program_start, argc, argv));
     const int status = run_render(options, program_start);
     exit_without_teardown(status);
   } catch (const InputError& e) {

@@ -32,6 +32,13 @@ class RenderBackend {
   // rendered in increasing order across calls; the result does not depend on how they are split into calls.
   virtual void render(u32 first_sample, u32 sample_count) = 0;
 
+  // Adds samples [first_sample, first_sample + sample_count) of every pixel of rows [first_row, first_row +
+  // row_count) to `band`, those rows of a film held by the caller (row-major, the band's first row first): the
+  // bands that several devices or processes render of one image (docs/distributed.md). Each pixel gets the same
+  // sums as render() gives it. The backend's own film is scratch here: render() and this are not mixed after one
+  // upload.
+  virtual void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) = 0;
+
   // Copies the film to the host (row-major, rows from the top).
   virtual void read_film(std::vector<FilmPixel>& pixels) = 0;
 
@@ -54,6 +61,10 @@ class RenderBackend {
 
   // Fixed-point saturation events since the last upload; 0 where the backend does not count them (GPUs).
   virtual u64 saturations() const { return 0; }
+
+  // Where the work went when several devices or processes render one image: each one's name and the
+  // pixel-samples it rendered since the last upload; empty for a single device.
+  virtual std::vector<std::pair<std::string, u64>> work_shares() const { return {}; }
 };
 
 // Samples for the next synchronised batch of a device backend, so that a batch takes about target_seconds: often

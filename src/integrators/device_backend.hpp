@@ -55,6 +55,24 @@ class DeviceBackend final : public RenderBackend<T> {
     else megakernel_->render(first_sample, sample_count);
   }
 
+  void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) override {
+    const u32 width = view_.params.width;
+    if (row_count == 0 || first_row + row_count > view_.params.height || band.size() != static_cast<std::size_t>(width) * row_count)
+      throw BackendError("a band of rows outside the image");
+    // Host memory: the kernels add to the caller's band where it is. Elsewhere the band goes through the device's
+    // film, at its place in the image.
+    if (device_.memory_on_host()) {
+      integrate_rows(first_row, row_count, band.data(), first_sample, sample_count);
+      device_.synchronise("finishing the band");
+      return;
+    }
+    FilmPixel* on_device = film_ + static_cast<std::size_t>(first_row) * width;
+    const std::size_t bytes = band.size() * sizeof(FilmPixel);
+    device_.copy_to_device(on_device, band.data(), bytes, "copying a band of the film");
+    integrate_rows(first_row, row_count, on_device, first_sample, sample_count);
+    device_.copy_to_host(band.data(), on_device, bytes, "reading a band of the film back");
+  }
+
   void write_film(std::span<const FilmPixel> pixels) override {
     if (pixels.size() != film_pixels_) throw BackendError("a film of another size cannot be resumed");
     device_.copy_to_device(film_, pixels.data(), film_pixels_ * sizeof(FilmPixel), "restoring the film");
@@ -84,6 +102,11 @@ class DeviceBackend final : public RenderBackend<T> {
   u64 saturations() const override { return device_.saturations() - saturations_before_; }
 
  private:
+  void integrate_rows(u32 first_row, u32 row_count, FilmPixel* film, u32 first_sample, u32 sample_count) {
+    if (wavefront_) wavefront_->render_rows(first_row, row_count, film, first_sample, sample_count);
+    else megakernel_->render_rows(first_row, row_count, film, first_sample, sample_count);
+  }
+
   D device_;  // first: destroyed last, after everything allocated on it
   Integrator integrator_;
   DeviceAllocations<D> memory_{device_};  // the scene's arrays and the film

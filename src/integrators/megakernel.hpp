@@ -16,8 +16,11 @@ class MegakernelIntegrator {
   MegakernelIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film) : device_(device), scene_(scene), film_(film) {}
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film.
-  void render(u32 first_sample, u32 sample_count) {
-    const u32 width = scene_.params.width, height = scene_.params.height;
+  void render(u32 first_sample, u32 sample_count) { render_rows(0, scene_.params.height, film_, first_sample, sample_count); }
+
+  // The same for rows [first_row, first_row + row_count) of the image only, into `film`, which holds those rows.
+  void render_rows(u32 first_row, u32 row_count, FilmPixel* film, u32 first_sample, u32 sample_count) {
+    const u32 width = scene_.params.width, height = row_count;
     u32 done = 0;
     while (done < sample_count) {
       // On a GPU, batches of about a tenth of a second between synchronisations, of one sample per launch with a
@@ -31,10 +34,10 @@ class MegakernelIntegrator {
       const double before = seconds_;
       const typename D::Timer timer = device_.start_timer();
       if (host) {
-        device_.launch_image("launching the render kernel", width, height, MegakernelPass<T>{scene_, film_, first_sample + done, count});
+        device_.launch_image("launching the render kernel", width, height, MegakernelPass<T>{scene_, film, first_sample + done, count, first_row});
       } else {
         for (u32 s = first_sample + done; s < first_sample + done + count; ++s)
-          device_.launch_image("launching the render kernel", width, height, MegakernelSample<T>{scene_, film_, s});
+          device_.launch_image("launching the render kernel", width, height, MegakernelSample<T>{scene_, film, s, first_row});
       }
       device_.stop_timer(timer, &seconds_);
       device_.synchronise("running the render kernel");

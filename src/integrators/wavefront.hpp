@@ -35,8 +35,8 @@ class WavefrontIntegrator {
       : device_(device), memory_(device), scene_(scene), film_(film),
         pool_capacity_(device.host() ? kHostWavefrontPool : kGpuWavefrontPool),
         samples_per_batch_(wavefront_samples_per_batch(pixels(), pool_capacity_)) {
-    const std::size_t work_items = static_cast<std::size_t>(pixels()) * samples_per_batch_;
-    view_.for_each_array(pool_capacity_, work_items, [&](auto*& array, std::size_t entries) {
+    work_items_ = static_cast<std::size_t>(pixels()) * samples_per_batch_;
+    view_.for_each_array(pool_capacity_, work_items_, [&](auto*& array, std::size_t entries) {
       using Entry = std::remove_reference_t<decltype(*array)>;
       array = static_cast<Entry*>(memory_.allocate(entries * sizeof(Entry), "allocating the wavefront path pool"));
     });
@@ -45,10 +45,19 @@ class WavefrontIntegrator {
   }
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film.
-  void render(u32 first_sample, u32 sample_count) {
-    for (u32 batch_first = first_sample; batch_first < first_sample + sample_count; batch_first += samples_per_batch_) {
-      const u32 batch_samples = std::min(samples_per_batch_, first_sample + sample_count - batch_first);
-      const u32 items = pixels() * batch_samples;
+  void render(u32 first_sample, u32 sample_count) { render_rows(0, scene_.params.height, film_, first_sample, sample_count); }
+
+  // The same for rows [first_row, first_row + row_count) of the image only, into `film`, which holds those rows. A
+  // band takes more samples a batch than the whole image, as many as the results allocated for the image hold.
+  void render_rows(u32 first_row, u32 row_count, FilmPixel* film, u32 first_sample, u32 sample_count) {
+    const u32 band_pixels = scene_.params.width * row_count;
+    view_.pixels = band_pixels;
+    view_.first_pixel = scene_.params.width * first_row;
+    const u32 samples_per_batch =
+        static_cast<u32>(std::min<std::size_t>(wavefront_samples_per_batch(band_pixels, pool_capacity_), work_items_ / band_pixels));
+    for (u32 batch_first = first_sample; batch_first < first_sample + sample_count; batch_first += samples_per_batch) {
+      const u32 batch_samples = std::min(samples_per_batch, first_sample + sample_count - batch_first);
+      const u32 items = band_pixels * batch_samples;
       view_.first_sample = batch_first;
       u32 next_item = 0, live = 0;
       while (next_item < items || live > 0) {
@@ -67,7 +76,7 @@ class WavefrontIntegrator {
         live = shaded[kCounterNextPaths];
         view_.swap_pools();
       }
-      stage(kAccumulate, pixels(), WavefrontAccumulate<T>{view_, film_, batch_samples});
+      stage(kAccumulate, band_pixels, WavefrontAccumulate<T>{view_, film, batch_samples});
     }
     device_.synchronise("running the wavefront stages");
   }
@@ -112,7 +121,8 @@ class WavefrontIntegrator {
   DeviceAllocations<D> memory_;
   SceneView<T> scene_;
   FilmPixel* film_;
-  u32 pool_capacity_, samples_per_batch_;
+  u32 pool_capacity_, samples_per_batch_;  // the batch's samples for the whole image
+  std::size_t work_items_ = 0;             // results allocated: the whole image's batch
   WavefrontView<T> view_{};
   std::array<double, kWavefrontStageNames.size()> seconds_{};
 };

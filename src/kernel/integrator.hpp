@@ -201,15 +201,17 @@ PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 
   pixel = sum;
 }
 
-// The megakernel on host devices, a kernel over the image: samples [first_sample, first_sample + sample_count) of
-// pixel (x, y) added to the film.
+// The megakernel on host devices, a kernel over a band of the image's rows: samples [first_sample, first_sample +
+// sample_count) of pixel (x, first_row + y) added to the band's film, whose first row is the band's (a whole image
+// is the band from row 0; several devices each render bands of one image: docs/distributed.md).
 template <class T>
 struct MegakernelPass {
   SceneView<T> scene;
   FilmPixel* film;
   u32 first_sample, sample_count;
+  u32 first_row = 0;
   PT_HD void operator()(u32 x, u32 y) const {
-    accumulate_pixel(scene, x, y, first_sample, sample_count, film[static_cast<std::size_t>(y) * scene.params.width + x]);
+    accumulate_pixel(scene, x, first_row + y, first_sample, sample_count, film[static_cast<std::size_t>(y) * scene.params.width + x]);
   }
 };
 
@@ -224,10 +226,11 @@ struct MegakernelSample {
   SceneView<T> scene;
   FilmPixel* film;
   u32 sample;
+  u32 first_row = 0;  // of the band, as in MegakernelPass
   PT_HD void operator()(u32 x, u32 y) const {
     FilmPixel& pixel = film[static_cast<std::size_t>(y) * scene.params.width + x];
     FilmPixel sum = pixel;
-    add_sample(sum, trace_sample(scene, x, y, sample));
+    add_sample(sum, trace_sample(scene, x, first_row + y, sample));
     pixel = sum;
   }
 };

@@ -153,7 +153,8 @@ struct WavefrontView {
   u32* counters;             // kWavefrontCounters entries
   SampleResult<T>* results;  // one per work item of the batch
   u32 first_sample;
-  u32 pixels;
+  u32 pixels;           // of the band being rendered (the whole image, or rows of it: docs/distributed.md)
+  u32 first_pixel = 0;  // the image's index of the band's first pixel; film and results are indexed within the band
 
   // Bytes of one path in flight: two pools (current and next), its hit, its shadow ray, and a slot in the escaped
   // queue and in every material queue.
@@ -177,6 +178,7 @@ struct WavefrontView {
   }
 
   PT_HD u32 pixel_of(u32 item) const { return item % pixels; }
+  PT_HD u32 image_pixel_of(u32 item) const { return first_pixel + pixel_of(item); }
   PT_HD u32* material_queue(u32 material_class) const { return material_queues + static_cast<std::size_t>(material_class) * pool_capacity; }
   // The paths that go on were written to `next`; they become the current ones (host side, between bounces).
   void swap_pools() {
@@ -193,7 +195,7 @@ struct WavefrontView {
 
 template <class T>
 PT_HD inline SampleRandom wavefront_random(const SceneView<T>& scene, const WavefrontView<T>& w, u32 item) {
-  return path_random(scene.params, w.pixel_of(item), w.sample_of(item));
+  return path_random(scene.params, w.image_pixel_of(item), w.sample_of(item));
 }
 
 template <class T>
@@ -204,7 +206,7 @@ PT_HD inline void wavefront_finish(const WavefrontView<T>& w, const PathState<T>
 // Stage 1: a new camera path for work item `item`, in slot `slot` of the current pool.
 template <class T>
 PT_HD inline void wavefront_generate(const SceneView<T>& scene, const WavefrontView<T>& w, u32 slot, u32 item) {
-  const u32 pixel = w.pixel_of(item);
+  const u32 pixel = w.image_pixel_of(item);
   const SampleRandom random = wavefront_random(scene, w, item);
   w.current.store(slot, start_path(scene, pixel % scene.params.width, pixel / scene.params.width, random), item);
 }

@@ -1,0 +1,128 @@
+// Several devices behind one backend: uploads to each, bands of each pass handed out by film/bands.hpp.
+#include "film/multi_backend.hpp"
+
+#include <algorithm>
+#include <future>
+
+#include <fmt/format.h>
+
+#include "base/number_formats.hpp"
+
+namespace pt {
+
+// A device of this process as a band worker.
+template <class T>
+class MultiBackend<T>::DeviceWorker final : public BandWorker {
+ public:
+  DeviceWorker(RenderBackend<T>& backend, std::string label) : backend_(backend), label_(std::move(label)) {}
+  std::string name() const override { return label_.empty() ? backend_.name() : label_ + ": " + backend_.name(); }
+  void render_band(const BandWork& work, std::span<FilmPixel> band) override {
+    backend_.render_rows(work.first_row, work.row_count, work.first_sample, work.sample_count, band);
+  }
+
+ private:
+  RenderBackend<T>& backend_;
+  std::string label_;
+};
+
+template <class T>
+MultiBackend<T>::MultiBackend(std::vector<std::unique_ptr<RenderBackend<T>>> devices, std::vector<std::unique_ptr<BandWorker>> remote,
+                              const std::string& label)
+    : devices_(std::move(devices)) {
+  for (auto& device : devices_) workers_.push_back(std::make_unique<DeviceWorker>(*device, label));
+  for (auto& worker : remote) workers_.push_back(std::move(worker));
+  if (workers_.empty()) throw BackendError("no device to render on");
+  for (auto& worker : workers_) worker_pointers_.push_back(worker.get());
+  shares_.assign(workers_.size(), 0);
+  alone_ = devices_.size() == 1 && workers_.size() == 1;
+}
+
+template <class T>
+MultiBackend<T>::~MultiBackend() {
+  workers_.clear();  // the device workers refer to the devices
+}
+
+template <class T>
+std::string MultiBackend<T>::name() const {
+  std::string names;
+  for (const auto& worker : workers_) names += (names.empty() ? "" : "; ") + worker->name();
+  return fmt::format("{} devices in bands: {}", workers_.size(), names);
+}
+
+template <class T>
+void MultiBackend<T>::upload(const FlatScene<T>& scene) {
+  // Every device at once: a GPU's upload is mostly copies, which overlap.
+  std::vector<std::future<void>> uploads;
+  for (auto& device : devices_) uploads.push_back(std::async(std::launch::async, [&scene, &device] { device->upload(scene); }));
+  for (auto& upload : uploads) upload.get();
+  width_ = scene.params.width;
+  height_ = scene.params.height;
+  if (alone_) film_.clear();
+  else film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
+  row_costs_.assign(height_, 0.0);
+  std::fill(shares_.begin(), shares_.end(), 0);
+}
+
+template <class T>
+void MultiBackend<T>::render(u32 first_sample, u32 sample_count) {
+  if (!alone_) return render_rows(0, height_, first_sample, sample_count, film_);
+  devices_[0]->render(first_sample, sample_count);
+  shares_[0] += static_cast<u64>(width_) * height_ * sample_count;
+}
+
+template <class T>
+void MultiBackend<T>::render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) {
+  if (first_row + row_count > height_) throw BackendError("a band of rows outside the image");
+  const BandWork work{first_row, row_count, first_sample, sample_count};
+  render_bands(worker_pointers_, width_, work, band, min_band_rows(row_count, workers_.size()), shares_, row_costs_);
+}
+
+template <class T>
+void MultiBackend<T>::read_film(std::vector<FilmPixel>& pixels) {
+  if (alone_) devices_[0]->read_film(pixels);
+  else pixels = film_;
+}
+
+template <class T>
+void MultiBackend<T>::write_film(std::span<const FilmPixel> pixels) {
+  if (alone_) return devices_[0]->write_film(pixels);
+  if (pixels.size() != film_.size()) throw BackendError("a film of another size cannot be resumed");
+  std::copy(pixels.begin(), pixels.end(), film_.begin());
+}
+
+template <class T>
+std::span<const FilmPixel> MultiBackend<T>::film_on_host(std::vector<FilmPixel>& copy) {
+  if (alone_) return devices_[0]->film_on_host(copy);
+  return film_;
+}
+
+template <class T>
+std::optional<double> MultiBackend<T>::device_seconds() const {
+  if (alone_) return devices_[0]->device_seconds();
+  return std::nullopt;
+}
+
+template <class T>
+std::vector<std::pair<std::string, double>> MultiBackend<T>::stage_seconds() const {
+  if (alone_) return devices_[0]->stage_seconds();
+  return {};
+}
+
+template <class T>
+u64 MultiBackend<T>::saturations() const {
+  u64 total = 0;
+  for (const auto& device : devices_) total += device->saturations();
+  return total;
+}
+
+template <class T>
+std::vector<std::pair<std::string, u64>> MultiBackend<T>::work_shares() const {
+  std::vector<std::pair<std::string, u64>> out;
+  for (std::size_t i = 0; i < workers_.size(); ++i) out.emplace_back(workers_[i]->name(), shares_[i]);
+  return out;
+}
+
+#define PT_INSTANTIATE_MULTI_BACKEND(...) template class MultiBackend<__VA_ARGS__>;
+PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_MULTI_BACKEND)
+
+}  // namespace pt

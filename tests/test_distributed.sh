@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# Several devices and several MPI processes render one image, bitwise the same as one device, and a process that
+# fails stops the run with one error and no image. Usage: test_distributed.sh PATHTRACER SCENE CASE [MPIEXEC]
+set -euo pipefail
+pathtracer=$1 scene=$2 case=$3 mpiexec=${4:-mpirun}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+# CI runs as root, which mpirun refuses unless told; --oversubscribe lets 3 ranks share 2 cores. Single-copy
+# transfers between processes (CMA) need ptrace rights that containers often withhold; copies through shared
+# memory work everywhere.
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
+mpi() { local ranks=$1; shift; "$mpiexec" -np "$ranks" --oversubscribe "$@"; }
+# 37 rows: bands of uneven height for any number of devices or ranks.
+size=(--width 48 --height 37 --spp 6 -q)
+
+same() {  # same IMAGE_A IMAGE_B WHAT
+  if ! cmp -s "$1" "$2"; then echo "FAIL: $3: $2 differs from $1"; exit 1; fi
+  echo "ok: $3"
+}
+
+case "$case" in
+  cpu-devices)
+    for integrator in megakernel wavefront; do
+      "$pathtracer" render "$scene" "${size[@]}" --integrator $integrator --threads 2 -o one.pfm
+      "$pathtracer" render "$scene" "${size[@]}" --integrator $integrator --threads 2 --device cpu,cpu -o two.pfm
+      "$pathtracer" render "$scene" "${size[@]}" --integrator $integrator --threads 3 --device cpu,cpu,cpu -o three.pfm
+      "$pathtracer" render "$scene" "${size[@]}" --integrator $integrator --threads 2 --device all -o all.pfm
+      same one.pfm two.pfm "two CPU devices, $integrator"
+      same one.pfm three.pfm "three CPU devices, $integrator"
+      same one.pfm all.pfm "--device all, $integrator"
+    done
+    ;;
+  mpi-ranks)  # the ranks of the fourth argument's list, e.g. "2 3"
+    for ranks in ${5:-2 3}; do
+      for integrator in megakernel wavefront; do
+        "$pathtracer" render "$scene" "${size[@]}" --integrator $integrator --threads 1 -o one.pfm
+        mpi "$ranks" "$pathtracer" render "$scene" "${size[@]}" --integrator $integrator --threads 1 -o ranks.pfm
+        same one.pfm ranks.pfm "$ranks ranks, $integrator"
+      done
+    done
+    # Two CPU devices in each of two ranks: bands of bands.
+    mpi 2 "$pathtracer" render "$scene" "${size[@]}" --threads 2 --device cpu,cpu -o nested.pfm
+    same one.pfm nested.pfm "2 ranks of 2 CPU devices each"
+    ;;
+  mpi-failed-rank)
+    # Rank 1 cannot read its scene: one error naming it, a failing status, and no image.
+    status=0
+    mpi 1 "$pathtracer" render "$scene" "${size[@]}" -o out.pfm : -np 1 "$pathtracer" render "$work/missing.json" "${size[@]}" -o out.pfm \
+      2>err.txt || status=$?
+    cat err.txt
+    [ "$status" -ne 0 ] || { echo "FAIL: the run succeeded"; exit 1; }
+    [ ! -e out.pfm ] || { echo "FAIL: an image was written"; exit 1; }
+    [ "$(grep -c '^pathtracer: error:' err.txt)" -eq 1 ] || { echo "FAIL: not exactly one error"; exit 1; }
+    grep -q '^pathtracer: error: rank 1 (host .*missing.json' err.txt || { echo "FAIL: the error does not name rank 1 and its scene"; exit 1; }
+    echo "ok: a rank that cannot read its scene stops the run"
+    ;;
+  mpi-checkpoint)
+    # Stopped early (the time limit, as an interrupt stops), saved by rank 0, resumed by two ranks: the same image.
+    spp=(--width 48 --height 37 --spp 40 --threads 1)
+    "$pathtracer" render "$scene" "${spp[@]}" -q -o one.pfm
+    mpi 2 "$pathtracer" render "$scene" "${spp[@]}" --time-limit 0.001 --checkpoint film.ckpt -o part.pfm 2>err.txt
+    grep -q "stopped by the time limit after .* of 40 samples per pixel; film saved to film.ckpt" err.txt ||
+      { cat err.txt; echo "FAIL: not stopped early, or no checkpoint"; exit 1; }
+    mpi 2 "$pathtracer" render "$scene" "${spp[@]}" -q --resume film.ckpt -o resumed.pfm
+    same one.pfm resumed.pfm "stopped, saved and resumed across 2 ranks"
+    ;;
+  mpi-interrupt)
+    # mpirun stopped (Ctrl-C or SIGTERM: it sends SIGTERM to every rank): rank 0 stops after the pass under way, saves the
+    # checkpoint and writes the image so far; two ranks resume it to the image of one uninterrupted process.
+    spp=(--width 96 --height 74 --spp 3000 --threads 1)
+    "$pathtracer" render "$scene" "${spp[@]}" -q -o one.pfm
+    "$mpiexec" -np 2 --oversubscribe "$pathtracer" render "$scene" "${spp[@]}" --checkpoint film.ckpt --checkpoint-interval 0.1 \
+      -o part.pfm 2>err.txt &
+    launcher=$!
+    for _ in $(seq 600); do [ -e film.ckpt ] && break; sleep 0.1; done
+    # SIGTERM, which mpirun takes as it takes Ctrl-C: a background job of a script ignores SIGINT.
+    kill -TERM $launcher
+    wait $launcher || true
+    grep -q "stopped by .* after .* of 3000 samples per pixel; film saved to film.ckpt" err.txt ||
+      { cat err.txt; echo "FAIL: the interrupted run did not stop early and save"; exit 1; }
+    [ -e part.pfm ] || { echo "FAIL: no image of the samples done"; exit 1; }
+    mpi 2 "$pathtracer" render "$scene" "${spp[@]}" -q --resume film.ckpt -o resumed.pfm
+    same one.pfm resumed.pfm "interrupted under mpirun, saved by rank 0, resumed across 2 ranks"
+    ;;
+  *) echo "unknown case $case"; exit 2 ;;
+esac
