@@ -3,21 +3,11 @@
 share of it in the pixels brighter than 1.5 in the reference (an emitter seen directly and its edges).
 Usage: tools/rmse.py REFERENCE.pfm IMAGE.pfm [IMAGE.pfm ...]"""
 import math
-import struct
+import os
 import sys
 
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        if f.readline().strip() != b"PF":
-            raise SystemExit(f"{path}: not a colour PFM")
-        width, height = map(int, f.readline().split())
-        scale = float(f.readline())
-        count = width * height * 3
-        data = f.read(4 * count)
-        if len(data) != 4 * count:
-            raise SystemExit(f"{path}: truncated")
-        return width, height, struct.unpack(("<" if scale < 0 else ">") + f"{count}f", data)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from compare_pfm import read_pfm  # noqa: E402  (the one PFM reader of the tools)
 
 
 def main():
