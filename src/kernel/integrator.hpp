@@ -33,6 +33,7 @@ struct ShadowRay {
   Color<T> weight;  // the path's throughput times the material's scattering towards the light
   T scatter_pdf;    // the density with which the material would have scattered that way
   T distance;       // how far the ray may look for the light: just beyond the point chosen on it
+  T light_pdf;      // the light's density for this direction where sampling gave it, else 0 (light_pdf finds it)
   u32 entry;        // kNoLight: none to trace
   u32 triangle;
 };
@@ -81,6 +82,7 @@ PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathSta
   // A margin of 1/1024 keeps the light itself within reach of the rounded hit distance; only media there (a fog that
   // also fills the light) count for a length they should not, at most that fraction of the way.
   shadow.distance = light.distance + light.distance * constant<T>(1.0 / 1024);
+  shadow.light_pdf = light.pdf;
   shadow.entry = light.entry;
   shadow.triangle = light.triangle;
   ++path.shadow_rays;
@@ -105,7 +107,7 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));
-  const T light_density = light_pdf(scene, shadow.entry, shadow.ray, hit, at);
+  const T light_density = shadow.light_pdf > T(0) ? shadow.light_pdf : light_pdf(scene, shadow.entry, shadow.ray, hit, at);
   if (!(light_density > T(0))) return Color<T>{};
   return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * exp(-optical_depth));
 }

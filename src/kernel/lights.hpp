@@ -13,6 +13,7 @@ template <class T>
 struct LightSample {
   Vec3<T> direction;
   T distance;  // to the point on the light (largest<T>() for the background)
+  T pdf;       // the density per unit solid angle where sampling knows it (a rectangle by solid angle), else 0
   u32 entry;
   u32 triangle;
 };
@@ -83,14 +84,180 @@ PT_HD inline T sphere_cone_width(T r2, T d2) {
   return sin2 / (T(1) + sqrt(max(T(0), T(1) - sin2)));
 }
 
+// (a, b) / |(a, b)|, and |(a, b)|; false for (0, 0). Fixed-point formats divide by the larger magnitude first, so
+// that no length is squared (it would overflow); floating point squares directly, with one division.
+template <class T>
+PT_HD inline bool unit_pair(T a, T b, T& ua, T& ub, T& length) {
+  ua = T(0);
+  ub = T(0);
+  length = T(0);
+  if constexpr (std::is_floating_point_v<T>) {
+    length = sqrt(a * a + b * b);
+    if (!(length > T(0))) return false;
+    const T inverse = T(1) / length;
+    ua = a * inverse;
+    ub = b * inverse;
+  } else {
+    const T m = max(abs(a), abs(b));
+    if (!(m > T(0))) return false;
+    a = a / m;
+    b = b / m;
+    const T l = sqrt(a * a + b * b);
+    ua = a / l;
+    ub = b / l;
+    length = m * l;
+  }
+  return true;
+}
+
+// A rectangle seen from a point as the spherical rectangle it fills (Urena, Fajardo and King, "An Area-Preserving
+// Parametrization for Spherical Rectangles", 2013), so that light sampling can pick directions uniformly in solid
+// angle: near a large light, area sampling's density falls as 1/distance^2 across the light and its samples vary
+// by orders of magnitude, while directions spread evenly over the light's solid angle vary only with the cosine at
+// the receiver. The frame: x and y along the edges, z the normal turned away from the point, so the rectangle lies
+// at height z0 < 0 over [x0, x1] x [y0, y1]. b0, b1 and k are the constants of the parametrization.
+template <class T>
+struct SphericalRectangle {
+  Vec3<T> x, y, z;
+  T x0, x1, y0, y1, z0;
+  T b0, b1, k;
+  T solid_angle;
+};
+
+// The angle between unit vectors a and b as the unit complex number (cos, sin), from their dot product and the length
+// of their cross product (accurate near 0 and pi, where an arc cosine is not). Angles add by multiplying these, so
+// a sum of angles costs one arc tangent instead of one each.
+template <class T>
+struct Turn {
+  T c, s;
+};
+
+template <class T>
+PT_HD inline Turn<T> turn_between(const Vec3<T>& a, const Vec3<T>& b) {
+  return Turn<T>{dot(a, b), length(cross(a, b))};
+}
+
+template <class T>
+PT_HD inline Turn<T> operator*(const Turn<T>& a, const Turn<T>& b) {
+  return Turn<T>{a.c * b.c - a.s * b.s, a.s * b.c + a.c * b.s};
+}
+
+// The angle of a turn in [0, 2 pi).
+template <class T>
+PT_HD inline T turn_angle(const Turn<T>& t) {
+  const T angle = atan2(t.s, t.c);
+  return angle < T(0) ? angle + constant<T>(2) * pi<T>() : angle;
+}
+
+// Below this solid angle, light sampling falls back to the area (the spherical rectangle's angles cancel to a few
+// digits, and for a far light the two densities are the same anyway); the margin in rounding units keeps the
+// cancellation small for fixed-point formats, whose angles carry an absolute error of a few steps. Above the
+// largest, the point nearly touches the light's plane, where the parametrization divides by almost zero.
+template <class T>
+PT_HD inline T smallest_sampled_solid_angle() {
+  return constant<T>(3e-4) + constant<T>(1024) * ScalarTraits<T>::rounding_unit();
+}
+
+// The spherical rectangle that quad q fills seen from `from`, where q is a rectangle and its solid angle lies
+// within the range sampled by it; false otherwise (light sampling then samples q by area). The same test decides in
+// sample_light and light_pdf, so the density is always that of the sampling used.
+template <class T>
+PT_HD inline bool spherical_rectangle(const Quad<T>& q, const Vec3<T>& from, SphericalRectangle<T>& r) {
+  Vec3<T> eu, ev;
+  quad_edges(q, eu, ev);
+  const T lu = length(eu), lv = length(ev);
+  if (!(lu > T(0) && lv > T(0))) return false;
+  // Floating point multiplies by the reciprocal (one division); fixed point divides, as 1 / length keeps few digits.
+  if constexpr (std::is_floating_point_v<T>) {
+    r.x = eu * (T(1) / lu);
+    r.y = ev * (T(1) / lv);
+  } else {
+    r.x = eu / lu;
+    r.y = ev / lv;
+  }
+  if (!(abs(dot(r.x, r.y)) <= constant<T>(1e-6))) return false;  // a parallelogram that is not a rectangle
+  r.z = cross(r.x, r.y);
+  const Vec3<T> d = q.corner - from;
+  r.x0 = dot(d, r.x);
+  r.y0 = dot(d, r.y);
+  r.z0 = dot(d, r.z);
+  if (r.z0 > T(0)) {
+    r.z = -r.z;
+    r.z0 = -r.z0;
+  }
+  if (!(r.z0 < T(0))) return false;  // the point lies in the light's plane
+  r.x1 = r.x0 + lu;
+  r.y1 = r.y0 + lv;
+  // Unit normals of the planes through the point and each edge, (0, z0, -y0), (-z0, 0, x1), (0, -z0, y1) and
+  // (z0, 0, -x0) normalised; the spherical rectangle's inner angles lie between consecutive ones.
+  Vec3<T> n0{}, n1{}, n2{}, n3{};
+  T unused;
+  if (!unit_pair(r.z0, -r.y0, n0.y, n0.z, unused) || !unit_pair(-r.z0, r.x1, n1.x, n1.z, unused) ||
+      !unit_pair(-r.z0, r.y1, n2.y, n2.z, unused) || !unit_pair(r.z0, -r.x0, n3.x, n3.z, unused))
+    return false;
+  // The inner angles g0..g3 sum to 2 pi + the solid angle; k = 2 pi - g2 - g3. Each lies in (0, pi), so g2 + g3
+  // and the solid angle are read off their turns in [0, 2 pi) (two arc tangents for the four angles).
+  const Turn<T> g23 = turn_between(-n2, n3) * turn_between(-n3, n0);
+  r.b0 = n0.z;
+  r.b1 = n2.z;
+  r.k = constant<T>(2) * pi<T>() - turn_angle(g23);
+  r.solid_angle = turn_angle(turn_between(-n0, n1) * turn_between(-n1, n2) * g23);
+  return r.solid_angle > smallest_sampled_solid_angle<T>() && r.solid_angle < constant<T>(6.2);
+}
+
+// The point of the spherical rectangle at (u1, u2), as a unit direction from the point it is seen from and the
+// distance to it: u1 sweeps the solid angle by equal shares along x, u2 along y, so the directions are uniform in
+// solid angle. Written without squaring lengths (every square is of a ratio within [-1, 1] or of a sine).
+template <class T>
+PT_HD inline void sample_spherical_rectangle(const SphericalRectangle<T>& r, T u1, T u2, Vec3<T>& direction, T& distance) {
+  // x: the angle au that takes the share u1 of the solid angle; cu is the cosine of the angle at which the plane
+  // through the point and x = xu meets the x axis: cu = sign(f) / sqrt(f^2 + b0^2) with f = (cos au b0 - b1) / sin au,
+  // written as a ratio of bounded terms.
+  const T au = u1 * r.solid_angle + r.k;
+  const T s = sin(au), c = cos(au);
+  const T num = c * r.b0 - r.b1;
+  const T den = sqrt(num * num + (r.b0 * s) * (r.b0 * s));
+  T xu = num < T(0) ? r.x0 : r.x1;
+  if (den > T(0)) {
+    const T cu = clamp((num < T(0) ? -s : s) / den, constant<T>(-1), constant<T>(1));
+    const T sine = sqrt(max(T(0), T(1) - cu * cu));
+    xu = sine > T(0) ? -(cu * r.z0) / sine : (cu > T(0) ? r.x1 : r.x0);
+  }
+  xu = clamp(xu, r.x0, r.x1);
+  // y: uniform in the sine of the elevation over [y0, y1] along the line x = xu, at distance dd from the point.
+  T cx, sz, dd;  // dd = sqrt(xu^2 + z0^2)
+  unit_pair(xu, r.z0, cx, sz, dd);
+  T c0, h0, c1, h1, unused;
+  unit_pair(dd, r.y0, c0, h0, unused);
+  unit_pair(dd, r.y1, c1, h1, unused);
+  const T hv = h0 + u2 * (h1 - h0);
+  const T cv = sqrt(max(T(0), T(1) - hv * hv));
+  const T yv = cv > T(0) ? clamp(hv * dd / cv, r.y0, r.y1) : (hv > T(0) ? r.y1 : r.y0);
+  // The direction (xu, yv, z0) in the rectangle's frame, normalised without squaring lengths.
+  Vec3<T> local{xu, yv, r.z0};
+  if constexpr (std::is_floating_point_v<T>) {
+    distance = length(local);
+    local = local * (T(1) / distance);
+  } else {
+    const T m = max(max(abs(xu), abs(yv)), abs(r.z0));
+    local = Vec3<T>{xu / m, yv / m, r.z0 / m};
+    const T l = length(local);
+    distance = m * l;
+    local = Vec3<T>{local.x / l, local.y / l, local.z / l};
+  }
+  direction = r.x * local.x + r.y * local.y + r.z * local.z;
+}
+
 // A direction from `from` towards a point of the chosen light (pass its entry), or false where none can be had.
-// Spheres seen from outside are sampled uniformly over the cone they fill; every other shape uniformly over its
-// area (a mesh: a triangle by its share of the mesh's power, then a point on it).
+// Spheres seen from outside are sampled uniformly over the cone they fill, rectangles uniformly over the solid angle
+// they fill (where it is neither tiny nor nearly a half-space); every other shape uniformly over its area (a mesh: a
+// triangle by its share of the mesh's power, then a point on it).
 template <class T>
 PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<T>& from, T time, const BounceRandom& random, LightSample<T>& out) {
   const LightEntry<T>& light = scene.lights.entries[entry];
   out.entry = entry;
   out.triangle = 0;
+  out.pdf = T(0);
   T u1, u2;
   random.uniform_pair(kDimLightPoint, u1, u2);
   if (light.primitive == kNoLight) {
@@ -120,6 +287,12 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
   } else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) {
     if (sphere(moving_sphere_center(*m, time), m->radius)) return true;
   } else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
+    SphericalRectangle<T> rectangle;
+    if (spherical_rectangle(*q, from, rectangle)) {
+      sample_spherical_rectangle(rectangle, u1, u2, out.direction, out.distance);
+      out.pdf = light.pmf / rectangle.solid_angle;
+      return true;
+    }
     Vec3<T> eu, ev;
     quad_edges(*q, eu, ev);
     target = q->corner + u1 * eu + u2 * ev;
@@ -164,7 +337,11 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   };
   if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) return sphere(s->center, s->radius);
   if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) return sphere(moving_sphere_center(*m, ray.time), m->radius);
-  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) return per_area(quad_area(*q));
+  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
+    SphericalRectangle<T> rectangle;
+    if (spherical_rectangle(*q, from, rectangle)) return light.pmf / rectangle.solid_angle;
+    return per_area(quad_area(*q));
+  }
   if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return per_area(triangle_area(tri->edge1, tri->edge2));
   if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
     const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];

@@ -48,6 +48,7 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
   FIELD(Color<T>, weight)       \
   FIELD(T, scatter_pdf)         \
   FIELD(T, distance)            \
+  FIELD(T, light_pdf)           \
   FIELD(u32, entry)             \
   FIELD(u32, triangle)          \
   FIELD(u32, item)              \
@@ -99,7 +100,7 @@ struct ShadowQueue {
   }
 
   PT_HD ShadowRay<T> load(u32 i) const {
-    return ShadowRay<T>{Ray<T>{origin[i], direction[i], time[i]}, weight[i], scatter_pdf[i], distance[i], entry[i], triangle[i]};
+    return ShadowRay<T>{Ray<T>{origin[i], direction[i], time[i]}, weight[i], scatter_pdf[i], distance[i], light_pdf[i], entry[i], triangle[i]};
   }
   PT_HD void store(u32 i, const ShadowRay<T>& shadow, u32 work_item, u32 next_slot) const {
     origin[i] = shadow.ray.origin;
@@ -108,6 +109,7 @@ struct ShadowQueue {
     weight[i] = shadow.weight;
     scatter_pdf[i] = shadow.scatter_pdf;
     distance[i] = shadow.distance;
+    light_pdf[i] = shadow.light_pdf;
     entry[i] = shadow.entry;
     triangle[i] = shadow.triangle;
     item[i] = work_item;
