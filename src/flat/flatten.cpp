@@ -1076,12 +1076,18 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   };
   std::vector<Aabb> bounds = all_bounds();
 
-  // Fixed point: scale all lengths by a power of two (exact in binary) so that squared distances stay in range.
+  // Fixed point: scale all lengths by a power of two (exact in binary) so that what the kernels compute stays in
+  // range. Formats with exact products (ScalarTraits::kExactProducts: intersection tests, lengths and light
+  // densities keep products exact and round once) square nothing in the format; they form differences of two
+  // coordinates (a ray's origin to a centre, a corner, a vertex: 2 L per component for coordinates within L) and
+  // distances along rays from them (|origin - centre| + radius, up to about 4.5 L), so coordinates within an eighth
+  // of the largest value need no scaling: Q16.16 renders a scene within 4096 units as it is. Other formats square
+  // distances: half the square root of the largest value.
   if (!(scale > 0)) {
     scale = 1;
     if constexpr (is_fixed_v<T>) {
       const double extent = scene_extent(bounds, make_camera<double>(scene.camera, settings.width, settings.height));
-      const double fit = std::sqrt(static_cast<double>(largest<T>())) / 2;
+      const double fit = ScalarTraits<T>::kExactProducts ? static_cast<double>(largest<T>()) / 8 : std::sqrt(static_cast<double>(largest<T>())) / 2;
       if (extent > fit && std::isfinite(extent)) scale = std::exp2(std::floor(std::log2(fit / extent)));
     }
   }

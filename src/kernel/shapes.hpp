@@ -448,9 +448,9 @@ PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_norm
 template <class T>
 PT_HD inline void set_tangent_frame(SurfacePoint<T>& at, const Vec3<T>& outward, const Vec3<T>& dpdu, const Vec3<T>& dpdv) {
   const Vec3<T> along = dpdu - dot(dpdu, outward) * outward;
-  const T length2 = length_squared(along);
-  if (!(length2 > T(0)) || !is_finite(length2)) return;
-  const Vec3<T> tangent = along / sqrt(length2);
+  const T along_length = length(along);  // not its square, which fixed point may not hold
+  if (!(along_length > T(0)) || !is_finite(along_length)) return;
+  const Vec3<T> tangent = along / along_length;
   const T handedness = dot(cross(outward, tangent), dpdv) < T(0) ? T(-1) : T(1);
   at.tangent = at.front_face ? tangent : -tangent;
   at.handedness = at.front_face ? handedness : -handedness;
@@ -496,9 +496,16 @@ PT_HD inline TriangleSurface<T> triangle_surface(const Vec3<T>& p0, const Vec3<T
                                                  const Vec3<T>* normals, const T* us, const T* vs, bool needs_tangent = false,
                                                  const MeshTangent<T>* tangents = nullptr) {
   TriangleSurface<T> s;
-  const Vec3<T> area_normal = cross(edge1, edge2);
-  const T twice_area = length(area_normal);
-  s.geometric = area_normal / twice_area;
+  T twice_area;
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    // From the exact cross product: edges of 0.01 have one below a step of Q16.16, whose normal was 0 / 0.
+    const ExactVec3<T> area_normal = exact_cross(edge1, edge2);
+    ScalarTraits<T>::exact_unit(area_normal.x, area_normal.y, area_normal.z, s.geometric.x, s.geometric.y, s.geometric.z, twice_area);
+  } else {
+    const Vec3<T> area_normal = cross(edge1, edge2);
+    twice_area = length(area_normal);
+    s.geometric = area_normal / twice_area;
+  }
   // From the barycentrics the point lies on the triangle's plane up to the rounding of the interpolation. A new
   // test measures the distance to the plane through cross products of the edges, whose rounding, relative to
   // that distance, grows as 1 / sin of the corner's angle, |e1| |e2| / |e1 x e2|.
