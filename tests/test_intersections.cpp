@@ -562,6 +562,27 @@ TEST(TriangleIntersectionInFixedPoint, SmallAndLargeTrianglesAreHitPreciselyInQ1
   EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
 }
 
+// The hit on seed-default's ground described in Q16.16 at scale 1: re-projecting the point onto the sphere divides
+// by |p - centre|, about 1000, whose square overflowed; the length is now a root of exact squares.
+TEST(SphereIntersectionInFixedPoint, HitOnALargeSphereIsDescribedPreciselyInQ16_16) {
+  const Vec3d center{0, -1000, 0};
+  const Shape<Q16> ground = Sphere<Q16>{to<Q16>(center), Q16(1000)};
+  test::TestRandom rng(23);
+  const u64 saturations_before = fixed_saturations_this_thread();
+  for (int i = 0; i < 200; ++i) {
+    const Vec3d target{8 * (rng.uniform() - 0.5), 0, 8 * (rng.uniform() - 0.5)};
+    Hit<Q16> hit;
+    SurfacePoint<Q16> at;
+    ASSERT_TRUE(hit_shape(ground, make_ray<Q16>({13, 3, 3}, target - Vec3d{13, 3, 3}), 0, 1e4, hit, at));
+    // On the sphere to within a few steps (each coordinate rounds, and radius / |p - c| carries a step of 1000's
+    // relative precision), and the normal unit to within the same.
+    EXPECT_NEAR(length(as_double(at.p) - center), 1000, 1e-3);
+    EXPECT_NEAR(length(as_double(at.normal)), 1, 1e-3);
+    EXPECT_NEAR(as_double(at.p).y, 0, 0.01);
+  }
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+}
+
 // A triangle of edges 0.004 in Q16.16 (after scaling, the tiny scene's knot has such): their cross product, 1.6e-5,
 // is about a step, whose square rounds to 0, and the normal was 0 / 0. From the exact cross product it is unit and
 // points the right way.
