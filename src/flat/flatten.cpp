@@ -202,7 +202,8 @@ Texture<T> fit_texture(const Fit<T>& fit, const Texture<double>& texture, const 
       return out;
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
-      return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth};
+      return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth,
+                             fit(t.unscale, Quantity::kPlain, at, "1 / the scale of lengths, which the marble's turbulence undoes")};
     }
   };
   return visit(Convert{fit, at}, texture);
@@ -351,7 +352,7 @@ Primitive<double> scaled(const Primitive<double>& primitive, double s) {
 // Textures that read the world position keep their pattern in place on the scaled scene.
 Texture<double> scaled(Texture<double> texture, double s) {
   if (auto* t = std::get_if<CheckerTexture<double>>(&texture)) t->cells_per_unit /= s;
-  if (auto* t = std::get_if<NoiseTexture<double>>(&texture)) t->scale /= s;
+  if (auto* t = std::get_if<NoiseTexture<double>>(&texture)) t->scale /= s, t->unscale /= s;
   return texture;
 }
 
