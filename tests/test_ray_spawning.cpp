@@ -160,8 +160,11 @@ void expect_no_self_intersection(bool narrow) {
         if (!intersect_geometry(shape, next, T(0), largest<T>(), again)) continue;
         // Into a sphere, the ray starts at least `offset` inside it and meets it again only where it leaves it, at
         // least sqrt(2 r offset) away even when it goes along the surface. A hit nearer than half that is the
-        // surface it left.
-        if (sphere && side < 0 && static_cast<double>(again.t) > 0.5 * std::sqrt(2 * radius * static_cast<double>(at.offset))) continue;
+        // surface it left. Which way the ray goes is that of its direction as the type holds it: within the
+        // direction's rounding of the tangent plane (2^-17 in Q16.16, more than the smallest elevations drawn) a
+        // ray drawn outwards may be sent inwards, and then meets the far side.
+        const bool went_in = dot(as_double(next.direction), as_double(at.geometric_normal)) < 0;
+        if (sphere && went_in && static_cast<double>(again.t) > 0.5 * std::sqrt(2 * radius * static_cast<double>(at.offset))) continue;
         if (met_again++ == 0)
           first_failure = "t = " + std::to_string(static_cast<double>(again.t)) + " at elevation " + std::to_string(elevation) +
                           (side > 0 ? " outwards" : " inwards");
