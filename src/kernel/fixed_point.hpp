@@ -2,6 +2,7 @@
 // ScalarTraits needs computed in integer arithmetic, so a host render shows what a fixed-point datapath would draw.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <type_traits>
 
@@ -347,6 +348,73 @@ struct ScalarTraits<Fixed<I, F>> {
   PT_HD static constexpr T slab_distance(T bound, T reciprocal, T origin) {
     const i128 product = static_cast<i128>((bound - origin).raw) * reciprocal.raw;
     return T::from_raw(clamp_to_range((product + (i128(1) << (F - 1))) >> F));
+  }
+  // Intersection tests (kernel/shapes.hpp) in formats of up to 32 bits keep their products exact: a product of two
+  // values has 2F fraction bits, and of three 3F, in at most 100 bits, which 128-bit integers hold. Sums of
+  // products (dot and cross products) are then exact, nothing squared can overflow, and each result is rounded once.
+  // A datapath forms full-width products anyway; it keeps them wide until the quotient or the root. 64-bit formats
+  // would need 192 bits and keep the rounding of every operation.
+  static constexpr bool kExactProducts = sizeof(Raw) <= 4;
+  using Exact = i128;
+  PT_HD static constexpr i128 exact(T x) { return x.raw; }
+  // A value with 2F fraction bits, rounded to nearest (half up, as products are) and saturated.
+  PT_HD static constexpr T round_exact(i128 v) { return T::from_wide(v, 2 * F); }
+  // The root of a value with 2F fraction bits (0 for a negative one), rounded to nearest.
+  PT_HD static constexpr T exact_sqrt(i128 v) {
+    if (v <= 0) return T::from_raw(0);
+    // The same root either way; 64 bits where the value fits, the common case, which takes half the steps.
+    if (v < (i128(1) << 64)) return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(v)))));
+    return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<u128>(static_cast<u128>(v)))));
+  }
+  // The unit vector along (x, y, z) (exact values with 2F fraction bits, not all zero) and its length, each rounded
+  // once: the vector is first shifted right until its components have at most 30 bits (its direction keeps 29 bits
+  // at least, beyond any format of 32), so that the squares and their sum fit 64 bits. A triangle's normal from its
+  // edges' exact cross product survives edges whose cross product is below one step.
+  PT_HD static constexpr void exact_unit(i128 x, i128 y, i128 z, T& ux, T& uy, T& uz, T& length) {
+    auto magnitude = [](i128 v) { return v < 0 ? -v : v; };
+    i128 largest_component = magnitude(x) > magnitude(y) ? magnitude(x) : magnitude(y);
+    if (magnitude(z) > largest_component) largest_component = magnitude(z);
+    int shift = 0;
+    while ((largest_component >> shift) >= (i128(1) << 30)) ++shift;
+    const i64 sx = static_cast<i64>(x >> shift), sy = static_cast<i64>(y >> shift), sz = static_cast<i64>(z >> shift);
+    const std::uint64_t norm = fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(sx * sx + sy * sy + sz * sz));
+    if (norm == 0) {
+      ux = uy = uz = length = T::from_raw(0);
+      return;
+    }
+    ux = T::from_raw(clamp_to_range((static_cast<i128>(sx) << F) / static_cast<i128>(norm)));
+    uy = T::from_raw(clamp_to_range((static_cast<i128>(sy) << F) / static_cast<i128>(norm)));
+    uz = T::from_raw(clamp_to_range((static_cast<i128>(sz) << F) / static_cast<i128>(norm)));
+    // norm 2^shift has 2F fraction bits; the length F.
+    const int down = F - shift;
+    const i128 wide_length = down >= 0 ? (static_cast<i128>(norm) + (down > 0 ? (i128(1) << (down - 1)) : 0)) >> down : static_cast<i128>(norm) << -down;
+    length = T::from_raw(T::saturate(wide_length));
+  }
+  // numerator / denominator (both with the same fraction bits, the denominator nonzero), truncated toward zero as
+  // a divider does. A quotient out of range is a distance beyond anything in the scene, so it clamps uncounted.
+  // A zero denominator gives the largest value of the numerator's sign, as an infinite distance or density would.
+  PT_HD static constexpr T exact_quotient(i128 numerator, i128 denominator) {
+    if (denominator == 0) return T::from_raw(numerator < 0 ? -T::kMaxRaw : T::kMaxRaw);
+    return T::from_raw(clamp_to_range(numerator * (i128(1) << F) / denominator));
+  }
+  // A quad stores its dual edges times a power of two near the edge's length (Quad in kernel/shapes.hpp): sizes
+  // near 1, which keep every fraction bit, where 1 / length (1/555 has 7 significant bits in Q16.16) would not.
+  // Within the format's range: at least one step, at most a quarter of the largest value.
+  // Formats without exact products keep extents of 1 (the dual edges themselves), as floating point does.
+  static double quad_extent(double length) {
+    if constexpr (!kExactProducts) return 1;
+    if (!(length > 0) || !(length < 1e300)) return 1;
+    int exponent = 0;
+    (void)std::frexp(length, &exponent);  // length = m 2^exponent, m in [0.5, 1)
+    exponent -= 1;                        // 2^exponent <= length < 2^(exponent + 1)
+    if (exponent < -F) exponent = -F;
+    if (exponent > I - 3) exponent = I - 3;
+    return std::ldexp(1.0, exponent);
+  }
+  // (index + offset) / count in integers, truncated as a divider does: the index and the count need not fit the
+  // format (a 160-pixel-wide image in Q8.24, whose largest value is 128).
+  PT_HD static constexpr T index_fraction(u32 index, T offset, u32 count) {
+    return T::from_raw(clamp_to_range(((static_cast<i128>(index) << F) + offset.raw) / static_cast<i128>(count)));
   }
   PT_HD static constexpr Raw clamp_to_range(i128 v) {
     return v > T::kMaxRaw ? T::kMaxRaw : (v < -static_cast<i128>(T::kMaxRaw) ? -T::kMaxRaw : static_cast<Raw>(v));
