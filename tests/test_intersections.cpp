@@ -27,8 +27,7 @@ Ray<T> make_ray(const Vec3d& origin, const Vec3d& direction, double time = 0) {
 template <class T>
 Quad<T> make_test_quad(const Vec3d& corner, const Vec3d& u, const Vec3d& v) {
   // Made in double and converted, as flatten_scene does (|u x v|^2 may exceed a fixed format).
-  const Quad<double> q = make_quad(corner, u, v);
-  return Quad<T>{to<T>(q.corner), to<T>(q.normal), to<T>(q.du), to<T>(q.dv)};
+  return quad_in<T>(make_quad(corner, u, v));
 }
 
 template <class T>
@@ -448,6 +447,115 @@ TEST(QuadIntersectionInFixedPoint, LargeQuadHitIsPreciseInQ32_32) {
     EXPECT_NEAR(static_cast<double>(at.u), a, 1e-7);
     EXPECT_NEAR(static_cast<double>(at.v), b, 1e-7);
   }
+}
+
+// ---- Fixed point of up to 32 bits: exact products (ScalarTraits::kExactProducts) ----
+// Each test compares Q16.16 with double on the same, rounded, inputs (the shape and the ray as Q16.16 holds them),
+// so what remains is the error of the test's own arithmetic: one rounding per result. The formulations these
+// replace squared lengths and distances (the scene had to be scaled down to keep the squares in range) and stored
+// a quad's dual edges as 1 / length; each case below failed with them.
+
+using Q16 = Fixed<16, 16>;
+
+Vec3d as_double(const Vec3<Q16>& v) { return {static_cast<double>(v.x), static_cast<double>(v.y), static_cast<double>(v.z)}; }
+Ray<double> as_double(const Ray<Q16>& r) { return {as_double(r.origin), as_double(r.direction), static_cast<double>(r.time)}; }
+
+// seed-default's ground (radius 1000, centre 1000 below the origin) seen from its camera, at scale 1: r^2 = 1e6 is
+// beyond Q16.16 (32768), which made every ray miss (or forced a scale of 1/32). The discriminant is now exact and
+// rounded once, by its root.
+TEST(SphereIntersectionInFixedPoint, LargeSphereIsHitPreciselyWithoutScalingInQ16_16) {
+  const Vec3d center{0, -1000, 0};
+  const double radius = 1000;
+  test::TestRandom rng(19);
+  const u64 saturations_before = fixed_saturations_this_thread();
+  for (int i = 0; i < 500; ++i) {
+    const Vec3d target{8 * (rng.uniform() - 0.5), 0, 8 * (rng.uniform() - 0.5)};
+    const Ray<Q16> ray = make_ray<Q16>({13, 3, 3}, target - Vec3d{13, 3, 3});
+    Hit<Q16> hit;
+    ASSERT_TRUE(intersect_sphere(to<Q16>(center), Q16(radius), ray, Q16(0), largest<Q16>(), hit));
+    Hit<double> reference;
+    ASSERT_TRUE(intersect_sphere(center, radius, as_double(ray), 0.0, 1e30, reference));
+    // b and perp carry about a step each (2^-16), |perp|^2 about 2 |perp| steps (0.05 at 1000), and the root halves
+    // that over itself (at least 90 here): a few 1e-4.
+    EXPECT_NEAR(static_cast<double>(hit.t), reference.t, 1e-3);
+  }
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+}
+
+// A Cornell wall (555 units square) from 800 units away in Q16.16 at scale 1: du = 1/555 keeps 7 significant bits
+// in Q16.16 (the edges moved by up to 4 units); stored times its extent (512), it keeps 16, and the coordinates are
+// exact sums of products rounded once.
+TEST(QuadIntersectionInFixedPoint, CornellWallCoordinatesArePreciseInQ16_16) {
+  const Vec3d corner{0, 0, 555}, u{555, 0, 0}, v{0, 555, 0};
+  const Quad<Q16> quad = make_test_quad<Q16>(corner, u, v);
+  const Quad<double> reference_quad = make_quad(corner, u, v);
+  test::TestRandom rng(2024);
+  const u64 saturations_before = fixed_saturations_this_thread();
+  int edges = 0;
+  for (int i = 0; i < 500; ++i) {
+    // Half of the targets within 1 % of an edge, where an error in the coordinates turns hits into misses.
+    double a = rng.uniform(), b = rng.uniform();
+    if (i % 2) a = a < 0.5 ? 0.01 * a : 1 - 0.01 * (1 - a), ++edges;
+    const Vec3d origin{278 + 200 * (rng.uniform() - 0.5), 273 + 200 * (rng.uniform() - 0.5), -800};
+    const Ray<Q16> ray = make_ray<Q16>(origin, corner + a * u + b * v - origin);
+    Hit<double> reference{};
+    const bool expected = intersect_quad(reference_quad, as_double(ray), 0.0, 1e30, reference);
+    Hit<Q16> hit{};
+    const bool found = intersect_quad(quad, ray, Q16(0), largest<Q16>(), hit);
+    // Where the rounded ray meets the plane, in double (rounding the direction moves it by up to 1e-5 units per
+    // unit of distance); within a step of an edge either answer is right.
+    const Ray<double> r = as_double(ray);
+    const double t = dot(reference_quad.normal, reference_quad.corner - r.origin) / dot(reference_quad.normal, r.direction);
+    const Vec3d planar = r.at(t) - reference_quad.corner;
+    const double ra = dot(reference_quad.du, planar), rb = dot(reference_quad.dv, planar);
+    if (std::min({std::abs(ra), std::abs(1 - ra), std::abs(rb), std::abs(1 - rb)}) > 1e-4) ASSERT_EQ(found, expected) << "a " << ra << " b " << rb;
+    if (!found || !expected) continue;
+    // t (about 1400) is one quotient, truncated; the coordinates carry planar's rounding (a step per component,
+    // over 555) and du's (2^-17 relative).
+    EXPECT_NEAR(static_cast<double>(hit.t), reference.t, 1e-3);
+    EXPECT_NEAR(static_cast<double>(hit.b1), reference.b1, 1e-4);
+    EXPECT_NEAR(static_cast<double>(hit.b2), reference.b2, 1e-4);
+  }
+  EXPECT_GT(edges, 200);
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+}
+
+// Triangles of very different sizes in Q16.16 at scale 1: one of edge 0.02 seen from 4 units (det = 4e-4, 26 steps
+// if rounded: the barycentrics were off by a few per cent), and one of edge 555 seen from 1400 (det = 3e5, beyond
+// Q16.16: it saturated). With exact products the barycentrics and t are each one quotient.
+TEST(TriangleIntersectionInFixedPoint, SmallAndLargeTrianglesAreHitPreciselyInQ16_16) {
+  struct Case {
+    Vec3d p0, e1, e2, origin;
+  };
+  const Case cases[] = {{{0.1, 0.2, -4}, {0.02, 0, 0}, {0.004, 0.018, 0.003}, {0, 0, 0}},
+                        {{0, 0, 555}, {555, 0, 0}, {100, 555, -50}, {278, 273, -800}}};
+  test::TestRandom rng(7);
+  const u64 saturations_before = fixed_saturations_this_thread();
+  for (const Case& c : cases) {
+    const Triangle<Q16> tri{to<Q16>(c.p0), to<Q16>(c.e1), to<Q16>(c.e2), -1};
+    const Triangle<double> reference_tri{as_double(tri.p0), as_double(tri.edge1), as_double(tri.edge2), -1};
+    for (int i = 0; i < 500; ++i) {
+      double b1 = rng.uniform(), b2 = rng.uniform();
+      if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+      const Ray<Q16> ray = make_ray<Q16>(c.origin, c.p0 + b1 * c.e1 + b2 * c.e2 - c.origin);
+      Hit<double> reference{};
+      const bool expected = intersect_triangle(reference_tri, as_double(ray), 0.0, 1e30, reference);
+      Hit<Q16> hit{};
+      const bool found = intersect_triangle(tri, ray, Q16(0), largest<Q16>(), hit);
+      // The rounded ray's barycentrics in double (Moller-Trumbore without the inside test); within a step of an
+      // edge either answer is right.
+      const Ray<double> r = as_double(ray);
+      const Vec3d pvec = cross(r.direction, reference_tri.edge2), tvec = r.origin - reference_tri.p0;
+      const double det = dot(reference_tri.edge1, pvec);
+      const double rb1 = dot(tvec, pvec) / det, rb2 = dot(r.direction, cross(tvec, reference_tri.edge1)) / det;
+      if (std::min({std::abs(rb1), std::abs(rb2), std::abs(1 - rb1 - rb2)}) > 1e-4) ASSERT_EQ(found, expected) << "b1 " << rb1 << " b2 " << rb2;
+      if (!found || !expected) continue;
+      EXPECT_NEAR(static_cast<double>(hit.t), reference.t, 1e-4);
+      EXPECT_NEAR(static_cast<double>(hit.b1), reference.b1, 1e-4);
+      EXPECT_NEAR(static_cast<double>(hit.b2), reference.b2, 1e-4);
+    }
+  }
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
 }
 
 // ---- constant medium ----

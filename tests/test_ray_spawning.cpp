@@ -58,7 +58,7 @@ Shape<T> converted(const Shape<double>& shape) {
   if (const auto* t = std::get_if<Triangle<double>>(&shape))
     return Triangle<T>{test::to<T>(t->p0), test::to<T>(t->edge1), test::to<T>(t->edge2), -1};
   const Quad<double>& q = std::get<Quad<double>>(shape);
-  return Quad<T>{test::to<T>(q.corner), test::to<T>(q.normal), test::to<T>(q.du), test::to<T>(q.dv)};
+  return quad_in<T>(q);
 }
 
 template <class T>
@@ -75,7 +75,9 @@ Shape<double> as_double(const Shape<T>& shape) {
     return MovingSphere<double>{as_double(s->center0), static_cast<double>(s->radius), as_double(s->velocity), static_cast<double>(s->time0)};
   if (const auto* t = std::get_if<Triangle<T>>(&shape)) return Triangle<double>{as_double(t->p0), as_double(t->edge1), as_double(t->edge2), -1};
   const Quad<T>& q = std::get<Quad<T>>(shape);
-  return Quad<double>{as_double(q.corner), as_double(q.normal), as_double(q.du), as_double(q.dv)};
+  // Back to extents of 1: the dual edges themselves.
+  const double eu = static_cast<double>(q.u_extent), ev = static_cast<double>(q.v_extent);
+  return Quad<double>{as_double(q.corner), as_double(q.normal), as_double(q.du) / eu, as_double(q.dv) / ev, 1, 1};
 }
 
 std::vector<ShapeCase> unit_shapes() {

@@ -289,6 +289,12 @@ Primitive<T> fit_primitive(const Fit<T>& fit, const SceneDescription& scene, con
     Shape<T> operator()(const Quad<double>& q) const {
       Vec3d u, v;
       quad_edges(q, u, v);
+      // The dual edges times the type's extents (Quad): sizes of 1 / length where the extent is 1, else near 1.
+      const double eu = ScalarTraits<T>::quad_extent(length(u)), ev = ScalarTraits<T>::quad_extent(length(v));
+      const Quantity dual = eu == 1 && ev == 1 ? Quantity::kInverseLength : Quantity::kPlain;
+      const std::string stored = eu == 1 && ev == 1 ? "1 / an edge's length" : "an edge's dual vector times a power of two near its length";
+      const T u_extent = fit(eu, Quantity::kLength, origin.pointer, "a power of two near an edge's length"),
+              v_extent = fit(ev, Quantity::kLength, origin.pointer, "a power of two near an edge's length");
       if (origin.box) {
         if (!origin.moved) {  // name the values as written, where they are the ones the faces are made of
           fit(origin.box->min * fit.scale(), Quantity::kLength, key("/min"));
@@ -296,17 +302,20 @@ Primitive<T> fit_primitive(const Fit<T>& fit, const SceneDescription& scene, con
         }
         const std::string where = origin.moved ? ", after the object's transform" : "";
         const Quad<T> out{fit(q.corner, Quantity::kLength, origin.pointer, "a corner of the box" + where), fit(q.normal, Quantity::kPlain, origin.pointer, "a face's normal"),
-                          fit(q.du, Quantity::kInverseLength, origin.pointer, "1 / an edge's length, as a face stores it"),
-                          fit(q.dv, Quantity::kInverseLength, origin.pointer, "1 / an edge's length, as a face stores it")};
+                          fit(q.du * eu, dual, origin.pointer, stored + ", as a face stores it"), fit(q.dv * ev, dual, origin.pointer, stored + ", as a face stores it"),
+                          u_extent, v_extent};
         fit(u, Quantity::kLength, origin.pointer, "an edge of the box, max - min" + where);
         fit(v, Quantity::kLength, origin.pointer, "an edge of the box, max - min" + where);
         fit(q.corner + u + v, Quantity::kLength, origin.pointer, "a corner of the box" + where);
         return out;
       }
       const std::string turned = origin.moved ? "after the object's transform" : "";
+      const std::string stored_u = eu == 1 ? "1 / the length of u" : "u's dual vector times a power of two near its length";
+      const std::string stored_v = ev == 1 ? "1 / the length of v" : "v's dual vector times a power of two near its length";
       const Quad<T> out{position(q.corner, "/corner"), fit(q.normal, Quantity::kPlain, origin.pointer, "the normal"),
-                        fit(q.du, Quantity::kInverseLength, key("/u"), "1 / the length of u, as the quad stores it"),
-                        fit(q.dv, Quantity::kInverseLength, key("/v"), "1 / the length of v, as the quad stores it")};
+                        fit(q.du * eu, eu == 1 ? Quantity::kInverseLength : Quantity::kPlain, key("/u"), stored_u + ", as the quad stores it"),
+                        fit(q.dv * ev, ev == 1 ? Quantity::kInverseLength : Quantity::kPlain, key("/v"), stored_v + ", as the quad stores it"),
+                        u_extent, v_extent};
       fit(u, Quantity::kLength, key("/u"), turned);
       fit(v, Quantity::kLength, key("/v"), turned);
       return out;
@@ -330,7 +339,7 @@ Primitive<double> scaled(const Primitive<double>& primitive, double s) {
       return MovingSphere<double>{x.center0 * s, x.radius * s, x.velocity * s, x.time0};
     }
     Shape<double> operator()(const Triangle<double>& x) const { return Triangle<double>{x.p0 * s, x.edge1 * s, x.edge2 * s, x.attributes}; }
-    Shape<double> operator()(const Quad<double>& x) const { return Quad<double>{x.corner * s, x.normal, x.du / s, x.dv / s}; }
+    Shape<double> operator()(const Quad<double>& x) const { return Quad<double>{x.corner * s, x.normal, x.du / s, x.dv / s, x.u_extent, x.v_extent}; }
     Shape<double> operator()(const ConstantMedium<double>& x) const {
       return ConstantMedium<double>{x.first_boundary, x.boundary_count, x.neg_inv_density * s};
     }

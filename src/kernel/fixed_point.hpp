@@ -2,6 +2,7 @@
 // ScalarTraits needs computed in integer arithmetic, so a host render shows what a fixed-point datapath would draw.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <type_traits>
 
@@ -347,6 +348,37 @@ struct ScalarTraits<Fixed<I, F>> {
   PT_HD static constexpr T slab_distance(T bound, T reciprocal, T origin) {
     const i128 product = static_cast<i128>((bound - origin).raw) * reciprocal.raw;
     return T::from_raw(clamp_to_range((product + (i128(1) << (F - 1))) >> F));
+  }
+  // Intersection tests (kernel/shapes.hpp) in formats of up to 32 bits keep their products exact: a product of two
+  // values has 2F fraction bits, and of three 3F, in at most 100 bits, which 128-bit integers hold. Sums of
+  // products (dot and cross products) are then exact, nothing squared can overflow, and each result is rounded once.
+  // A datapath forms full-width products anyway; it keeps them wide until the quotient or the root. 64-bit formats
+  // would need 192 bits and keep the rounding of every operation.
+  static constexpr bool kExactProducts = sizeof(Raw) <= 4;
+  using Exact = i128;
+  PT_HD static constexpr i128 exact(T x) { return x.raw; }
+  // A value with 2F fraction bits, rounded to nearest (half up, as products are) and saturated.
+  PT_HD static constexpr T round_exact(i128 v) { return T::from_wide(v, 2 * F); }
+  // The root of a value with 2F fraction bits (0 for a negative one), rounded to nearest.
+  PT_HD static constexpr T exact_sqrt(i128 v) {
+    if (v <= 0) return T::from_raw(0);
+    // The same root either way; 64 bits where the value fits, the common case, which takes half the steps.
+    if (v < (i128(1) << 64)) return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(v)))));
+    return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<u128>(static_cast<u128>(v)))));
+  }
+  // A quad stores its dual edges times a power of two near the edge's length (Quad in kernel/shapes.hpp): sizes
+  // near 1, which keep every fraction bit, where 1 / length (1/555 has 7 significant bits in Q16.16) would not.
+  // Within the format's range: at least one step, at most a quarter of the largest value.
+  // Formats without exact products keep extents of 1 (the dual edges themselves), as floating point does.
+  static double quad_extent(double length) {
+    if constexpr (!kExactProducts) return 1;
+    if (!(length > 0) || !(length < 1e300)) return 1;
+    int exponent = 0;
+    (void)std::frexp(length, &exponent);  // length = m 2^exponent, m in [0.5, 1)
+    exponent -= 1;                        // 2^exponent <= length < 2^(exponent + 1)
+    if (exponent < -F) exponent = -F;
+    if (exponent > I - 3) exponent = I - 3;
+    return std::ldexp(1.0, exponent);
   }
   PT_HD static constexpr Raw clamp_to_range(i128 v) {
     return v > T::kMaxRaw ? T::kMaxRaw : (v < -static_cast<i128>(T::kMaxRaw) ? -T::kMaxRaw : static_cast<Raw>(v));

@@ -72,6 +72,10 @@ struct ScalarTraits<float> {
   PT_HD static float slab_reciprocal(float d) { return 1.0f / (::fabsf(d) > 1e-20f ? d : (d < 0.0f ? -1e-20f : 1e-20f)); }
   PT_HD static float slab_origin_term(float origin, float reciprocal) { return origin * reciprocal; }
   PT_HD static float slab_distance(float bound, float reciprocal, float origin_term) { return bound * reciprocal - origin_term; }
+  // Floating point rounds every product (kernel/shapes.hpp has the formulations of fixed point, which keeps them
+  // exact), and stores a quad's dual edges as they are (an extent of 1, see Quad).
+  static constexpr bool kExactProducts = false;
+  static double quad_extent(double) { return 1; }
 };
 
 template <>
@@ -100,6 +104,8 @@ struct ScalarTraits<double> {
   PT_HD static double slab_reciprocal(double d) { return 1.0 / (::fabs(d) > 1e-20 ? d : (d < 0.0 ? -1e-20 : 1e-20)); }
   PT_HD static double slab_origin_term(double origin, double reciprocal) { return origin * reciprocal; }
   PT_HD static double slab_distance(double bound, double reciprocal, double origin_term) { return bound * reciprocal - origin_term; }
+  static constexpr bool kExactProducts = false;
+  static double quad_extent(double) { return 1; }
 };
 
 // Short names used throughout the kernels; they only forward to the traits.

@@ -24,22 +24,26 @@ struct TriangleAttributes {
 };
 
 // The parallelogram corner + a u + b v for a, b in [0, 1], stored as its plane's unit normal and the dual edge
-// vectors du, dv (du.u = dv.v = 1, du.v = dv.u = 0), so that a = du.(p - corner) and b = dv.(p - corner).
-// Every stored value has the size of a length or of its reciprocal, never of 1/area, so narrow number formats
-// keep it precise, and a hit costs two dot products instead of two cross products.
-template <class T> struct Quad { Vec3<T> corner, normal, du, dv; };
+// vectors (u* with u*.u = 1, u*.v = 0, and v* likewise), each times an extent: du = u_extent u*, dv = v_extent v*,
+// so that a = du.(p - corner) / u_extent and b = dv.(p - corner) / v_extent. Floating point stores extents of 1
+// (du and dv are the dual edges, sizes of 1 / edge length: no division per test), and so does every format without
+// exact products (ScalarTraits::kExactProducts: the tests below assume it); fixed point with them, a power of two near
+// the edge's length (ScalarTraits::quad_extent), so that du and dv have sizes near 1 and keep every fraction bit
+// (1/555, a Cornell wall's, has 7 significant bits in Q16.16), and dividing by the extent is a shift. No stored
+// value has the size of 1/area, and a hit costs two dot products instead of two cross products.
+template <class T> struct Quad { Vec3<T> corner, normal, du, dv; T u_extent, v_extent; };
 
 template <class T>
 PT_HD inline Quad<T> make_quad(const Vec3<T>& corner, const Vec3<T>& u, const Vec3<T>& v) {
   const Vec3<T> n = cross(u, v);
   const T area_squared = length_squared(n);
-  return Quad<T>{corner, n / sqrt(area_squared), cross(v, n) / area_squared, cross(n, u) / area_squared};
+  return Quad<T>{corner, n / sqrt(area_squared), cross(v, n) / area_squared, cross(n, u) / area_squared, T(1), T(1)};
 }
 
-// A quad's area |u x v|, from its dual vectors: du x dv = normal / |u x v|.
+// A quad's area |u x v|, from its dual vectors: u* x v* = normal / |u x v|, and du x dv = u_extent v_extent u* x v*.
 template <class T>
 PT_HD inline T quad_area(const Quad<T>& q) {
-  return abs(T(1) / dot(q.normal, cross(q.du, q.dv)));
+  return abs(q.u_extent * (q.v_extent / dot(q.normal, cross(q.du, q.dv))));
 }
 
 // A triangle's area from two of its edges.
@@ -48,12 +52,25 @@ PT_HD inline T triangle_area(const Vec3<T>& edge1, const Vec3<T>& edge2) {
   return length(cross(edge1, edge2)) / constant<T>(2);
 }
 
-// The edges u and v back from the dual vectors (for bounds): u = |u x v| dv x normal, v = |u x v| normal x du.
+// The edges u and v back from the dual vectors (for bounds): u = |u x v| v* x normal, v = |u x v| normal x u*,
+// which with D = normal.(du x dv) = u_extent v_extent / |u x v| is u = (u_extent / D) dv x normal and
+// v = (v_extent / D) normal x du.
 template <class T>
 PT_HD inline void quad_edges(const Quad<T>& q, Vec3<T>& u, Vec3<T>& v) {
-  const T area = T(1) / dot(q.normal, cross(q.du, q.dv));
-  u = area * cross(q.dv, q.normal);
-  v = area * cross(q.normal, q.du);
+  const T d = dot(q.normal, cross(q.du, q.dv));
+  u = (q.u_extent / d) * cross(q.dv, q.normal);
+  v = (q.v_extent / d) * cross(q.normal, q.du);
+}
+
+// A quad in another scalar type, from one in double with extents of 1 (make_quad's): du and dv times the type's
+// extents for the edges' lengths (host code for tests; flatten_scene converts through its range checks instead).
+template <class T>
+inline Quad<T> quad_in(const Quad<double>& q) {
+  Vec3<double> u, v;
+  quad_edges(q, u, v);
+  const double eu = ScalarTraits<T>::quad_extent(length(u)), ev = ScalarTraits<T>::quad_extent(length(v));
+  auto to = [](const Vec3<double>& a) { return Vec3<T>{static_cast<T>(a.x), static_cast<T>(a.y), static_cast<T>(a.z)}; };
+  return Quad<T>{to(q.corner), to(q.normal), to(q.du * eu), to(q.dv * ev), static_cast<T>(eu), static_cast<T>(ev)};
 }
 
 // A constant-density medium inside a convex boundary made of `boundary_count` geometric primitives stored from
@@ -161,11 +178,53 @@ struct IntersectContext {
   T* optical_depth = nullptr;
 };
 
+// ---- Exact products (fixed point of up to 32 bits, ScalarTraits::kExactProducts) ----
+// Products of two values kept with 2F fraction bits, of three with 3F, in the traits' Exact integers: dot and cross
+// products are exact, nothing squared overflows, and a test rounds once per result (a quotient or a root).
+template <class T>
+struct ExactVec3 {
+  typename ScalarTraits<T>::Exact x, y, z;
+};
+
+template <class T>
+PT_HD inline typename ScalarTraits<T>::Exact exact_dot(const Vec3<T>& a, const Vec3<T>& b) {
+  using S = ScalarTraits<T>;
+  return S::exact(a.x) * S::exact(b.x) + S::exact(a.y) * S::exact(b.y) + S::exact(a.z) * S::exact(b.z);
+}
+
+template <class T>
+PT_HD inline typename ScalarTraits<T>::Exact exact_dot(const Vec3<T>& a, const ExactVec3<T>& b) {
+  using S = ScalarTraits<T>;
+  return S::exact(a.x) * b.x + S::exact(a.y) * b.y + S::exact(a.z) * b.z;
+}
+
+template <class T>
+PT_HD inline ExactVec3<T> exact_cross(const Vec3<T>& a, const Vec3<T>& b) {
+  using S = ScalarTraits<T>;
+  return ExactVec3<T>{S::exact(a.y) * S::exact(b.z) - S::exact(a.z) * S::exact(b.y), S::exact(a.z) * S::exact(b.x) - S::exact(a.x) * S::exact(b.z),
+                      S::exact(a.x) * S::exact(b.y) - S::exact(a.y) * S::exact(b.x)};
+}
+
 // The two distances at which the ray's line crosses the sphere, nearest first; false where it misses. With a unit
 // direction the quadratic is t^2 + 2 b t + c; the discriminant is formed from the perpendicular distance to the
 // centre, which stays accurate for large spheres seen from close by.
+// With exact products: b = round(oc.d), perp = oc - b d (rounded per operation), and the discriminant
+// r^2 - |perp|^2 exact (2F fraction bits), its root rounded to nearest; no squared distance is ever rounded to the
+// format, so the scene need not be scaled to keep squares in range (a sphere of radius 1000 in Q16.16).
 template <class T>
 PT_HD inline bool sphere_roots(const Vec3<T>& center, T radius, const Ray<T>& ray, T& near, T& far) {
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    const Vec3<T> oc = ray.origin - center;
+    const T b = S::round_exact(exact_dot(oc, ray.direction));
+    const Vec3<T> perpendicular = oc - b * ray.direction;
+    const auto discriminant = S::exact(radius) * S::exact(radius) - exact_dot(perpendicular, perpendicular);
+    if (discriminant < 0) return false;
+    const T root = S::exact_sqrt(discriminant);
+    near = -b - root;
+    far = -b + root;
+    return true;
+  }
   const Vec3<T> oc = ray.origin - center;
   const T b = dot(oc, ray.direction);
   const Vec3<T> perpendicular = oc - b * ray.direction;
@@ -197,9 +256,31 @@ PT_HD inline Vec3<T> moving_sphere_center(const MovingSphere<T>& s, T time) {
   return s.center0 + (time - s.time0) * s.velocity;
 }
 
-// Möller-Trumbore.
+// Möller-Trumbore. With exact products (fixed point): p = d x e2 and q = (o - p0) x e1 exact (2F fraction bits),
+// det = e1.p, b1 = (o - p0).p, b2 = d.q and t = e2.q exact (3F); the inside test compares these exactly (sign of
+// det folded in), and b1, b2 and t are each one quotient, truncated. Nothing overflows however large the scene or
+// small the triangle (det of a 0.01-unit triangle is 1e-4, 7 steps of Q16.16, if rounded).
 template <class T>
 PT_HD inline bool intersect_triangle(const Triangle<T>& tri, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    const ExactVec3<T> pvec = exact_cross(ray.direction, tri.edge2);
+    auto det = exact_dot(tri.edge1, pvec);
+    if (det == 0) return false;
+    const Vec3<T> tvec = ray.origin - tri.p0;
+    auto b1 = exact_dot(tvec, pvec);
+    const ExactVec3<T> qvec = exact_cross(tvec, tri.edge1);
+    auto b2 = exact_dot(ray.direction, qvec);
+    auto t = exact_dot(tri.edge2, qvec);
+    if (det < 0) det = -det, b1 = -b1, b2 = -b2, t = -t;
+    if (!(b1 >= 0 && b2 >= 0 && b1 + b2 <= det)) return false;
+    const T distance = S::exact_quotient(t, det);
+    if (!(distance > t_min && distance < t_max)) return false;
+    hit.t = distance;
+    hit.b1 = S::exact_quotient(b1, det);
+    hit.b2 = S::exact_quotient(b2, det);
+    return true;
+  }
   const Vec3<T> pvec = cross(ray.direction, tri.edge2);
   const T det = dot(tri.edge1, pvec);
   if (det == T(0)) return false;
@@ -218,8 +299,28 @@ PT_HD inline bool intersect_triangle(const Triangle<T>& tri, const Ray<T>& ray, 
   return true;
 }
 
+// With exact products (fixed point): t = n.(corner - o) / n.d, both dot products exact, one quotient (truncated);
+// planar = o + t d - corner rounded per operation; du.planar and dv.planar exact (2F fraction bits) and compared
+// with [0, extent] exactly; the coordinates a and b are those divided by the extents (truncated: a power of two,
+// a shift).
 template <class T>
 PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    const auto denominator = exact_dot(q.normal, ray.direction);
+    if (denominator == 0) return false;
+    const T t = S::exact_quotient(exact_dot(q.normal, q.corner - ray.origin), denominator);
+    if (!(t > t_min && t < t_max)) return false;
+    const Vec3<T> planar = ray.at(t) - q.corner;
+    const auto a = exact_dot(q.du, planar), b = exact_dot(q.dv, planar);
+    const auto one = S::exact(T(1));
+    const auto a_max = S::exact(q.u_extent) * one, b_max = S::exact(q.v_extent) * one;
+    if (!(a >= 0 && a <= a_max && b >= 0 && b <= b_max)) return false;
+    hit.t = t;
+    hit.b1 = S::exact_quotient(a, a_max);
+    hit.b2 = S::exact_quotient(b, b_max);
+    return true;
+  }
   const T denominator = dot(q.normal, ray.direction);
   if (denominator == T(0)) return false;
   const T t = dot(q.normal, q.corner - ray.origin) / denominator;
