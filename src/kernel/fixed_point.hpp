@@ -366,6 +366,12 @@ struct ScalarTraits<Fixed<I, F>> {
     if (v < (i128(1) << 64)) return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(v)))));
     return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<u128>(static_cast<u128>(v)))));
   }
+  // trunc(n * 2^F / d) toward zero, for n and d with the same fraction bits, clamped to the range without counting
+  // (a distance beyond the range is beyond the scene); d = 0 gives +-max by the sign of n.
+  PT_HD static constexpr T exact_quotient(i128 n, i128 d) {
+    if (d == 0) return T::from_raw(n < 0 ? -T::kMaxRaw : T::kMaxRaw);
+    return T::from_raw(clamp_to_range((n * (i128(1) << F)) / d));
+  }
   // A quad stores its dual edges times a power of two near the edge's length (Quad in kernel/shapes.hpp): sizes
   // near 1, which keep every fraction bit, where 1 / length (1/555 has 7 significant bits in Q16.16) would not.
   // Within the format's range: at least one step, at most a quarter of the largest value.
