@@ -31,6 +31,7 @@ struct BoxOperands {
       "near_bound_y", "near_bound_z", "far_bound_x", "far_bound_y", "far_bound_z", "t_min", "t_max"};
   static constexpr std::array<std::string_view, 2> kOutputs = {"hit", "t_entry"};
   static constexpr bool kAlwaysWritten = true;
+  static constexpr int kFirstExtent = 0, kExtents = 0;
 
   // A box test as ray_hits_box makes it: the ray's slab form, the node, the distance range.
   template <class T>
@@ -69,6 +70,7 @@ struct TriangleOperands {
       "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
   static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
   static constexpr bool kAlwaysWritten = false;
+  static constexpr int kFirstExtent = 0, kExtents = 0;
 
   template <class T>
   static void pack(const Triangle<T>& tri, const Ray<T>& ray, T t_min, T t_max, i64* out) {
@@ -99,9 +101,11 @@ struct TriangleOperands {
 
 struct QuadOperands {
   static constexpr std::string_view kName = "quad";
-  static constexpr std::array<std::string_view, 20> kInputs = {
+  static constexpr std::array<std::string_view, 22> kInputs = {
       "corner_x", "corner_y", "corner_z", "normal_x", "normal_y", "normal_z", "du_x", "du_y", "du_z", "dv_x", "dv_y", "dv_z",
-      "origin_x", "origin_y", "origin_z", "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
+      "u_extent", "v_extent", "origin_x", "origin_y", "origin_z", "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
+  // The extents' raw values are powers of two (flatten_scene stores them so; the unit divides by them with a shift).
+  static constexpr int kFirstExtent = 12, kExtents = 2;
   static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
   static constexpr bool kAlwaysWritten = false;
 
@@ -111,6 +115,8 @@ struct QuadOperands {
     put(out, q.normal);
     put(out, q.du);
     put(out, q.dv);
+    put(out, q.u_extent);
+    put(out, q.v_extent);
     put(out, ray.origin);
     put(out, ray.direction);
     put(out, t_min);
@@ -123,6 +129,8 @@ struct QuadOperands {
     q.normal = get3<T>(in);
     q.du = get3<T>(in);
     q.dv = get3<T>(in);
+    q.u_extent = get1<T>(in);
+    q.v_extent = get1<T>(in);
     Ray<T> ray{};
     ray.origin = get3<T>(in);
     ray.direction = get3<T>(in);
@@ -139,6 +147,7 @@ struct SphereOperands {
                                                                 "origin_z", "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
   static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
   static constexpr bool kAlwaysWritten = false;
+  static constexpr int kFirstExtent = 0, kExtents = 0;
 
   // The centre as intersect_sphere is given it (a moving sphere's at the ray's time).
   template <class T>

@@ -63,6 +63,9 @@ struct EdgeCases {
     std::vector<i64> set(kInputs);
     for (int n = 0; n < count; ++n) {
       for (i64& v : set) v = extreme();
+      // A quad's extents are powers of two wherever flatten_scene makes them: any power within the range.
+      for (int k = Operands::kFirstExtent; k < Operands::kFirstExtent + Operands::kExtents; ++k)
+        set[k] = i64(1) << std::uniform_int_distribution<int>(0, T::kTotalBits - 3)(rng);
       add(set);
     }
   }
@@ -142,14 +145,17 @@ void unit_edge_cases(EdgeCases& e, TriangleOperands) {
 
 void unit_edge_cases(EdgeCases& e, QuadOperands) {
   std::mt19937_64 rng(7);
-  // A unit quad in z = 0 (normal +z, du = x, dv = y) and a 1/16 quad (du, dv of 16), rays along and across it.
+  // Square quads in z = 0 of side 1, 1/16 and 64 (normal +z, du and dv along x and y, times the extent the kernel's
+  // traits pick for the side), rays along and across them, from their corners and edges.
   for (double size : {1.0, 1.0 / 16, 64.0})
     for (const Vec3<T>& d : test_directions(rng))
       for (const Vec3<T>& o : {Vec3<T>{T(0.5 * size), T(0.5 * size), T(1.0)}, Vec3<T>{T(0.0), T(0.0), T(-1.0)}, Vec3<T>{T(size), T(size), T(0.0)},
                                Vec3<T>{T(0.0), T(0.0), T(0.0)}}) {
+        const double extent = ScalarTraits<T>::quad_extent(size);
         std::vector<i64> set;
         push3(set, Vec3<T>{}), push3(set, Vec3<T>{T(0.0), T(0.0), T(1.0)});
-        push3(set, Vec3<T>{T(1 / size), T(0.0), T(0.0)}), push3(set, Vec3<T>{T(0.0), T(1 / size), T(0.0)});
+        push3(set, Vec3<T>{T(extent / size), T(0.0), T(0.0)}), push3(set, Vec3<T>{T(0.0), T(extent / size), T(0.0)});
+        set.push_back(T(extent).raw), set.push_back(T(extent).raw);
         push3(set, o), push3(set, d);
         set.push_back(0), set.push_back(kMax);
         e.add(set);

@@ -42,11 +42,41 @@ def box_unit(u: Unit) -> None:
     u.output("t_entry", near)
 
 
+def exact_products(u: Unit) -> bool:
+    """Whether the kernel keeps products exact in this format: ScalarTraits<Fixed>::kExactProducts, storage of at most
+    32 bits."""
+    return u.W <= 32
+
+
 def triangle_unit(u: Unit) -> None:
-    """intersect_triangle (Moller-Trumbore, src/kernel/shapes.hpp)."""
+    """intersect_triangle (Moller-Trumbore, src/kernel/shapes.hpp). With exact products: p = d x e2 and
+    q = (o - p0) x e1 exact, det = e1.p, U = (o - p0).p, V = d.q, W = e2.q exact; the inside test on those with the
+    sign of det folded in; t, b1, b2 one quotient each by det (the same as by |det| with the signs folded: truncation
+    is symmetric). b1 and b2 lie in [0, 1] on a hit, so their dividers make F + 1 quotient bits."""
     p0, edge1, edge2 = vec_input(u, "p0"), vec_input(u, "edge1"), vec_input(u, "edge2")
     origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
     t_min, t_max = u.input("t_min"), u.input("t_max")
+    if exact_products(u):
+        pvec = u.xcross(direction, edge2)
+        det = u.xdot(edge1, pvec)
+        tvec = u.vsub(origin, p0)  # rounded (saturating) as Vec3<T> subtraction
+        b1 = u.xdot(tvec, pvec)
+        qvec = u.xcross(tvec, edge1)
+        b2 = u.xdot(direction, qvec)
+        t_exact = u.xdot(edge2, qvec)
+        zero = u.xzero(det.frac)
+        negative = u.xlt(det, zero)
+        # The tests on the folded values: U >= 0 is U <= 0 where det < 0, and U + V <= det is U + V >= det.
+        b1_inside = u.bit_select(negative, u.xle(b1, zero), u.xge(b1, zero))
+        b2_inside = u.bit_select(negative, u.xle(b2, zero), u.xge(b2, zero))
+        sum_inside = u.bit_select(negative, u.xge(u.xadd(b1, b2), det), u.xle(u.xadd(b1, b2), det))
+        t = u.quotient(t_exact, det)
+        hit = u.and_(u.not_(u.xeq(det, zero)), b1_inside, b2_inside, sum_inside, u.gt(t, t_min), u.lt(t, t_max))
+        u.output("hit", hit)
+        u.output("t", t)
+        u.output("b1", u.quotient(b1, det, u.F + 1))
+        u.output("b2", u.quotient(b2, det, u.F + 1))
+        return
     zero, one = u.zero(), u.one()
     pvec = u.cross(direction, edge2)
     det = u.dot(edge1, pvec)
@@ -65,12 +95,32 @@ def triangle_unit(u: Unit) -> None:
 
 
 def quad_unit(u: Unit) -> None:
-    """intersect_quad (src/kernel/shapes.hpp): t from the unit normal, the quad coordinates from the dual edges."""
+    """intersect_quad (src/kernel/shapes.hpp): t from the unit normal, the quad coordinates from the dual edges times
+    their extents. With exact products: den = n.d and n.(corner - o) exact, t their quotient; a = du.planar and
+    b = dv.planar exact, compared with [0, extent * 2^F]; b1, b2 = a / extent, a shift (extents are powers of two,
+    as flatten_scene stores them)."""
     corner, normal = vec_input(u, "corner"), vec_input(u, "normal")
     du, dv = vec_input(u, "du"), vec_input(u, "dv")
+    u_extent, v_extent = u.input("u_extent"), u.input("v_extent")
     origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
     t_min, t_max = u.input("t_min"), u.input("t_max")
-    zero, one = u.zero(), u.one()
+    one = u.one()
+    if exact_products(u):
+        denominator = u.xdot(normal, direction)
+        zero = u.xzero(denominator.frac)
+        t = u.quotient(u.xdot(normal, u.vsub(corner, origin)), denominator)
+        planar = u.vsub(u.vadd(origin, u.vscale(direction, t)), corner)
+        a, b = u.xdot(du, planar), u.xdot(dv, planar)
+        a_max, b_max = u.xmul(u_extent, one), u.xmul(v_extent, one)
+        hit = u.and_(u.not_(u.xeq(denominator, zero)), u.gt(t, t_min), u.lt(t, t_max), u.xge(a, zero), u.xle(a, a_max),
+                     u.xge(b, zero), u.xle(b, b_max))
+        u.output("hit", hit)
+        u.output("t", t)
+        u.output("b1", u.shift_quotient(a, u_extent))
+        u.output("b2", u.shift_quotient(b, v_extent))
+        return
+    # Formats without exact products store extents of 1: a and b are the dot products themselves.
+    zero = u.zero()
     denominator = u.dot(normal, direction)
     t = u.div(u.dot(normal, u.vsub(corner, origin)), denominator)
     at = u.vadd(origin, u.vscale(direction, t))  # ray.at(t) = origin + t * direction
@@ -87,22 +137,31 @@ def quad_unit(u: Unit) -> None:
 
 def sphere_unit(u: Unit) -> None:
     """intersect_sphere with sphere_roots (src/kernel/shapes.hpp): the discriminant from the perpendicular distance to
-    the centre, the nearer root if it lies in (t_min, t_max), else the farther."""
+    the centre, the nearer root if it lies in (t_min, t_max), else the farther. With exact products b is oc.d rounded
+    once, and r^2 - |perp|^2 is exact (nothing squared is rounded), its root rounded to nearest."""
     center, radius = vec_input(u, "center"), u.input("radius")
     origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
     t_min, t_max = u.input("t_min"), u.input("t_max")
-    zero = u.zero()
     oc = u.vsub(origin, center)
-    b = u.dot(oc, direction)
-    perpendicular = u.vsub(oc, u.vscale(direction, b))  # oc - b * direction
-    discriminant = u.sub(u.mul(radius, radius), u.dot(perpendicular, perpendicular))
-    root = u.sqrt(discriminant)
+    if exact_products(u):
+        b = u.round_exact(u.xdot(oc, direction))
+        perpendicular = u.vsub(oc, u.vscale(direction, b))  # oc - b * direction, rounded per operation
+        discriminant = u.xsub(u.xmul(radius, radius), u.xdot(perpendicular, perpendicular))
+        misses = u.xlt(discriminant, u.xzero(discriminant.frac))
+        root = u.exact_sqrt(discriminant)
+    else:
+        b = u.dot(oc, direction)
+        perpendicular = u.vsub(oc, u.vscale(direction, b))
+        discriminant = u.sub(u.mul(radius, radius), u.dot(perpendicular, perpendicular))
+        misses = u.lt(discriminant, u.zero())
+        root = u.sqrt(discriminant)
     minus_b = u.neg(b)
     near = u.sub(minus_b, root)
     far = u.add(minus_b, root)
     near_inside = u.and_(u.gt(near, t_min), u.lt(near, t_max))
     far_inside = u.and_(u.gt(far, t_min), u.lt(far, t_max))
-    u.output("hit", u.and_(u.not_(u.lt(discriminant, zero)), u.or_(near_inside, far_inside)))
+    zero = u.zero()
+    u.output("hit", u.and_(u.not_(misses), u.or_(near_inside, far_inside)))
     u.output("t", u.select(near_inside, near, far))
     u.output("b1", zero)
     u.output("b2", zero)
@@ -173,11 +232,11 @@ def main() -> int:
     integer_bits, fraction_bits = parse_format(args.format)
     options = dict(divide_steps_per_stage=args.divide_steps, root_steps_per_stage=args.root_steps, fault=args.fault)
     if args.costs:
-        print("unit,format,adds,multiplies,divides,square_roots,compares,latency")
+        print("unit,format,adds,multiplies,divides,square_roots,compares,exact_multiplies,exact_adds,latency")
         for name in sorted(UNITS):
             u = build(name, integer_bits, fraction_bits, **options)
             c = u.costs()
-            print(f"{name},q{integer_bits}.{fraction_bits},{c.add},{c.mul},{c.div},{c.sqrt},{c.compare},{u.latency()}")
+            print(f"{name},q{integer_bits}.{fraction_bits},{c.add},{c.mul},{c.div},{c.sqrt},{c.compare},{c.exact_mul},{c.exact_add},{u.latency()}")
         return 0
     u = build(args.unit, integer_bits, fraction_bits, **options)
     if args.verilog:
