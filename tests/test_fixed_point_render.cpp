@@ -48,21 +48,23 @@ TEST(FixedPointRender, WideFormatMatchesFloatWithin50Db) {
   EXPECT_GE(psnr(wide.image, reference.image), 50.0);
 }
 
-// Q16.16 must render the tiny scene recognisably (measured about 29 dB at 16 spp) after scaling it by 1/4.
-TEST(FixedPointRender, Q16_16RendersTheScaledScene) {
+// Q16.16 keeps products exact in its intersection tests and squares no distance, so it renders the tiny scene
+// (a ground of radius 100) at its own scale; it scaled it by 1/4 before, to keep squared distances in range.
+TEST(FixedPointRender, Q16_16RendersTheTinySceneUnscaled) {
   RenderSettings settings;
   const SceneDescription scene = tiny_scene(settings);
   const FlatScene<Fixed<16, 16>> flat = flatten_scene<Fixed<16, 16>>(scene, settings);
-  EXPECT_EQ(flat.scale, 0.25);
-  EXPECT_GE(psnr(render<Fixed<16, 16>>(scene, settings).image, render<float>(scene, settings).image), 20.0);
+  EXPECT_EQ(flat.scale, 1.0);
+  EXPECT_GE(psnr(render<Fixed<16, 16>>(scene, settings).image, render<float>(scene, settings).image), 28.0);
 }
 
-// A 0.01-unit quad beside a 1000-unit sphere: fitting the sphere's squared distances into Q10.10 scales the scene
-// by 1/256, which makes the quad's dual edges (1 / its edge length) about 25600, far beyond Q10.10's 511.
+// A sphere of radius 10000 beside the tiny scene: Q10.10 needs coordinates within 64, so the scene is scaled by
+// 1/512, and the ground checker's 3.18 cells per unit become 1630, beyond Q10.10's 511. (A 0.01-unit quad no
+// longer does this: a quad stores its dual edges times a power of two near its edge length, sizes near 1.)
 TEST(FixedPointRender, SceneThatDoesNotFitIsRefused) {
   RenderSettings settings;
   SceneDescription scene = tiny_scene(settings);
-  scene.objects.push_back(SceneObject{Sphere<double>{{0, -1000, 0}, 1000}, {}, 0});
+  scene.objects.push_back(SceneObject{Sphere<double>{{0, -10000, 0}, 10000}, {}, 0});
   scene.objects.push_back(SceneObject{QuadSettings{{0, 0, 0}, {0.01, 0, 0}, {0, 0.01, 0}}, {}, 0});
   try {
     flatten_scene<Fixed<10, 10>>(scene, settings);
@@ -76,8 +78,8 @@ TEST(FixedPointRender, SceneThatDoesNotFitIsRefused) {
   EXPECT_NO_THROW(flatten_scene<Q10_10>(tiny_scene(settings), settings));
 }
 
-// Scaled by 1/16 for Q12.12, the tiny scene's triangle has edges of about 0.05: their cross product's squared
-// length falls below one step, so normalising the geometric normal divides by zero. Those events are counted.
+// Rendering the tiny scene in Q12.12 counts saturation events (about one per two samples; Q32.32 counts as many
+// there, with an image within 129 dB of double's, so they are values beyond any range, not a lack of precision).
 TEST(FixedPointRender, SaturationsReachTheStatistics) {
   RenderSettings settings;
   const SceneDescription scene = tiny_scene(settings);

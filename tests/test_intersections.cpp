@@ -508,7 +508,9 @@ TEST(QuadIntersectionInFixedPoint, CornellWallCoordinatesArePreciseInQ16_16) {
     const double t = dot(reference_quad.normal, reference_quad.corner - r.origin) / dot(reference_quad.normal, r.direction);
     const Vec3d planar = r.at(t) - reference_quad.corner;
     const double ra = dot(reference_quad.du, planar), rb = dot(reference_quad.dv, planar);
-    if (std::min({std::abs(ra), std::abs(1 - ra), std::abs(rb), std::abs(1 - rb)}) > 1e-4) ASSERT_EQ(found, expected) << "a " << ra << " b " << rb;
+    if (std::min({std::abs(ra), std::abs(1 - ra), std::abs(rb), std::abs(1 - rb)}) > 1e-4) {
+      ASSERT_EQ(found, expected) << "a " << ra << " b " << rb;
+    }
     if (!found || !expected) continue;
     // t (about 1400) is one quotient, truncated; the coordinates carry planar's rounding (a step per component,
     // over 555) and du's (2^-17 relative).
@@ -548,13 +550,52 @@ TEST(TriangleIntersectionInFixedPoint, SmallAndLargeTrianglesAreHitPreciselyInQ1
       const Vec3d pvec = cross(r.direction, reference_tri.edge2), tvec = r.origin - reference_tri.p0;
       const double det = dot(reference_tri.edge1, pvec);
       const double rb1 = dot(tvec, pvec) / det, rb2 = dot(r.direction, cross(tvec, reference_tri.edge1)) / det;
-      if (std::min({std::abs(rb1), std::abs(rb2), std::abs(1 - rb1 - rb2)}) > 1e-4) ASSERT_EQ(found, expected) << "b1 " << rb1 << " b2 " << rb2;
+      if (std::min({std::abs(rb1), std::abs(rb2), std::abs(1 - rb1 - rb2)}) > 1e-4) {
+        ASSERT_EQ(found, expected) << "b1 " << rb1 << " b2 " << rb2;
+      }
       if (!found || !expected) continue;
       EXPECT_NEAR(static_cast<double>(hit.t), reference.t, 1e-4);
       EXPECT_NEAR(static_cast<double>(hit.b1), reference.b1, 1e-4);
       EXPECT_NEAR(static_cast<double>(hit.b2), reference.b2, 1e-4);
     }
   }
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+}
+
+// The hit on seed-default's ground described in Q16.16 at scale 1: re-projecting the point onto the sphere divides
+// by |p - centre|, about 1000, whose square overflowed; the length is now a root of exact squares.
+TEST(SphereIntersectionInFixedPoint, HitOnALargeSphereIsDescribedPreciselyInQ16_16) {
+  const Vec3d center{0, -1000, 0};
+  const Shape<Q16> ground = Sphere<Q16>{to<Q16>(center), Q16(1000)};
+  test::TestRandom rng(23);
+  const u64 saturations_before = fixed_saturations_this_thread();
+  for (int i = 0; i < 200; ++i) {
+    const Vec3d target{8 * (rng.uniform() - 0.5), 0, 8 * (rng.uniform() - 0.5)};
+    Hit<Q16> hit;
+    SurfacePoint<Q16> at;
+    ASSERT_TRUE(hit_shape(ground, make_ray<Q16>({13, 3, 3}, target - Vec3d{13, 3, 3}), 0, 1e4, hit, at));
+    // On the sphere to within a few steps (each coordinate rounds, and radius / |p - c| carries a step of 1000's
+    // relative precision), and the normal unit to within the same.
+    EXPECT_NEAR(length(as_double(at.p) - center), 1000, 1e-3);
+    EXPECT_NEAR(length(as_double(at.normal)), 1, 1e-3);
+    EXPECT_NEAR(as_double(at.p).y, 0, 0.01);
+  }
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+}
+
+// A triangle of edges 0.004 in Q16.16 (after scaling, the tiny scene's knot has such): their cross product, 1.6e-5,
+// is about a step, whose square rounds to 0, and the normal was 0 / 0. From the exact cross product it is unit and
+// points the right way.
+TEST(TriangleIntersectionInFixedPoint, SmallTriangleHasAUnitNormalInQ16_16) {
+  const Vec3d p0{0.5, 0.25, -2}, e1{0.004, 0.0005, 0}, e2{0.001, 0.004, 0.0005};
+  const Triangle<Q16> tri{to<Q16>(p0), to<Q16>(e1), to<Q16>(e2), -1};
+  const Vec3d expected = normalize(cross(as_double(tri.edge1), as_double(tri.edge2)));
+  const u64 saturations_before = fixed_saturations_this_thread();
+  Hit<Q16> hit{};
+  hit.b1 = Q16(0.25);
+  hit.b2 = Q16(0.25);
+  const TriangleSurface<Q16> surface = triangle_surface<Q16>(tri.p0, tri.edge1, tri.edge2, hit, nullptr, nullptr, nullptr);
+  expect_vec_near(surface.geometric, expected, 1e-4);
   EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
 }
 

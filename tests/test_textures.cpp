@@ -78,6 +78,30 @@ struct SmallImage {
   float texel(int x, int y, int c) const { return decode[texels[3 * (1 + y * 3 + x) + c]]; }
 };
 
+// Fixed-point formats may scale a scene's lengths by a power of two (flatten_scene). The marble's veins must stay
+// where they are: its stripes read the scaled position times the scaled frequency, and its turbulence the position
+// as written (the scaled position times 1 / scale). It used to read the scaled position, which moved the veins.
+TEST(NoiseTextures, MarbleVeinsStayInPlaceWhenTheSceneIsScaled) {
+  const SceneDescription scene = load_scene_file(test::scene_path("tiny.json"));
+  const FlatScene<double> as_written = flatten_scene<double>(scene, scene.render, 1.0);
+  const FlatScene<double> scaled = flatten_scene<double>(scene, scene.render, 0.25);
+  int marbles = 0;
+  for (std::size_t i = 0; i < as_written.textures.size(); ++i) {
+    const auto* noise = std::get_if<NoiseTexture<double>>(&as_written.textures[i]);
+    if (!noise || noise->kind != NoiseKind::kMarble) continue;
+    ++marbles;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> coordinate(-2.0, 2.0);
+    for (int k = 0; k < 200; ++k) {
+      const Vec3d p{coordinate(rng), coordinate(rng), coordinate(rng)};
+      const Color<double> expected = lookup(as_written.textures[i], TexturePoint<double>{0, 0, p}, as_written.view().texture_data);
+      const Color<double> got = lookup(scaled.textures[i], TexturePoint<double>{0, 0, p * 0.25}, scaled.view().texture_data);
+      EXPECT_NEAR(got.x, expected.x, 1e-12) << "at " << p.x << ", " << p.y << ", " << p.z;
+    }
+  }
+  EXPECT_EQ(marbles, 1);
+}
+
 TEST(ImageTextures, TexelCentresReturnTheDecodedBytes) {
   const SmallImage image;
   for (int y = 0; y < 2; ++y)

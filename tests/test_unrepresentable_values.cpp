@@ -181,17 +181,24 @@ TEST(UnrepresentableValues, FixedPointValueOutOfRange) {
   expect_refused<Fixed<16, 16>>(scene_text(bright), "1e5", "/materials/lamp/emission/2", {"100000 does not fit q16.16 (|x| <= 32768; see docs/numerics.md)"});
   bright.lamp = "[1, 1, 30000]";
   expect_accepted<Fixed<16, 16>>(scene_text(bright));
-  // A 0.01-unit quad beside a 1000-unit sphere: fitting the sphere's squared distances into Q10.10 scales the scene
-  // by 1/256, which makes the quad's dual edges (1 / its edge length) 25600, far beyond Q10.10's 512.
+  // A 0.01-unit quad beside a 1000-unit sphere: Q10.10 scales the scene by 1/32 (its intersection tests need
+  // coordinates within an eighth of 512). The quad fits: it stores its dual edges times a power of two near its edge
+  // length (they were 1 / length, 3200 after scaling). Q32.32, which still squares distances, scales by 1/128.
   const std::string mixed = replaced(with_object(R"({"type": "sphere", "center": [0, -1000, 0], "radius": 1000, "material": "white"})"),
                                      R"("material": "white"}
   ])",
                                      R"("material": "white"},
     {"type": "quad", "corner": [0, 0, 0], "u": [0.01, 0, 0], "v": [0, 0.01, 0], "material": "white"}
   ])");
-  expect_refused<Fixed<10, 10>>(mixed, "[0.01, 0, 0]", "/objects/2/u",
-                                {"100 (1 / the length of u, as the quad stores it), 25600 after scaling lengths by 0.00390625, does not fit q10.10"});
+  expect_accepted<Fixed<10, 10>>(mixed);
   expect_accepted<Fixed<32, 32>>(mixed);
+  // A per-length value still grows as the scene shrinks: the checker's 19.1 cells per unit (frequency 60 / pi)
+  // become 611 after scaling by 1/32, beyond Q10.10.
+  const std::string checkered = replaced(mixed, R"("radius": 1000, "material": "white")",
+                                         R"("radius": 1000, "material": {"type": "lambertian", "texture": {"type": "checker", "odd": [0.2, 0.3, 0.1], "even": [0.9, 0.9, 0.9], "frequency": 60}})");
+  expect_refused<Fixed<10, 10>>(checkered, "60}", "/objects/1/material/texture/frequency",
+                                {"19.0986 (cells per unit length, frequency / pi), 611.155 after scaling lengths by 0.03125, does not fit q10.10"});
+  expect_accepted<Fixed<16, 16>>(checkered);
 }
 
 // ---- through the command line ----

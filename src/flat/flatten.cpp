@@ -202,7 +202,8 @@ Texture<T> fit_texture(const Fit<T>& fit, const Texture<double>& texture, const 
       return out;
     }
     Texture<T> operator()(const NoiseTexture<double>& t) const {
-      return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth};
+      return NoiseTexture<T>{fit(t.scale, Quantity::kInverseLength, at + "/scale"), t.kind, t.turbulence_depth,
+                             fit(t.unscale, Quantity::kPlain, at, "1 / the scale of lengths, which the marble's turbulence undoes")};
     }
   };
   return visit(Convert{fit, at}, texture);
@@ -351,7 +352,7 @@ Primitive<double> scaled(const Primitive<double>& primitive, double s) {
 // Textures that read the world position keep their pattern in place on the scaled scene.
 Texture<double> scaled(Texture<double> texture, double s) {
   if (auto* t = std::get_if<CheckerTexture<double>>(&texture)) t->cells_per_unit /= s;
-  if (auto* t = std::get_if<NoiseTexture<double>>(&texture)) t->scale /= s;
+  if (auto* t = std::get_if<NoiseTexture<double>>(&texture)) t->scale /= s, t->unscale /= s;
   return texture;
 }
 
@@ -1076,12 +1077,18 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   };
   std::vector<Aabb> bounds = all_bounds();
 
-  // Fixed point: scale all lengths by a power of two (exact in binary) so that squared distances stay in range.
+  // Fixed point: scale all lengths by a power of two (exact in binary) so that what the kernels compute stays in
+  // range. Formats with exact products (ScalarTraits::kExactProducts: intersection tests, lengths and light
+  // densities keep products exact and round once) square nothing in the format; they form differences of two
+  // coordinates (a ray's origin to a centre, a corner, a vertex: 2 L per component for coordinates within L) and
+  // distances along rays from them (|origin - centre| + radius, up to about 4.5 L), so coordinates within an eighth
+  // of the largest value need no scaling: Q16.16 renders a scene within 4096 units as it is. Other formats square
+  // distances: half the square root of the largest value.
   if (!(scale > 0)) {
     scale = 1;
     if constexpr (is_fixed_v<T>) {
       const double extent = scene_extent(bounds, make_camera<double>(scene.camera, settings.width, settings.height));
-      const double fit = std::sqrt(static_cast<double>(largest<T>())) / 2;
+      const double fit = ScalarTraits<T>::kExactProducts ? static_cast<double>(largest<T>()) / 8 : std::sqrt(static_cast<double>(largest<T>())) / 2;
       if (extent > fit && std::isfinite(extent)) scale = std::exp2(std::floor(std::log2(fit / extent)));
     }
   }

@@ -150,7 +150,14 @@ void build_light_table(FlatScene<T>& scene) {
       double area = 0;
       if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) area = 4 * kPi * std::pow(static_cast<double>(s->radius), 2);
       else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) area = 4 * kPi * std::pow(static_cast<double>(m->radius), 2);
-      else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) area = static_cast<double>(quad_area(*q));
+      else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
+        // In double for fixed point, whose range may not hold the area (a 300 x 265 light in Q16.16).
+        if constexpr (is_fixed_v<T>)
+          area = quad_area(Quad<double>{to_double(q->corner), to_double(q->normal), to_double(q->du), to_double(q->dv), static_cast<double>(q->u_extent),
+                                        static_cast<double>(q->v_extent)});
+        else
+          area = static_cast<double>(quad_area(*q));
+      }
       else if (const auto* t = std::get_if<Triangle<T>>(&primitive.shape)) area = triangle_area(to_double(t->edge1), to_double(t->edge2));
       power = emitted * area;
     }

@@ -21,8 +21,8 @@ PT_HD inline Ray<T> camera_ray(const Camera<T>& camera, u32 width, u32 height, u
   T jitter_x, jitter_y, lens_u, lens_v;
   random.uniform_pair(0, kDimPixel, jitter_x, jitter_y);
   random.uniform_pair(0, kDimLens, lens_u, lens_v);
-  const T s = (T(x) + jitter_x) / T(width);
-  const T t = T(1) - (T(y) + jitter_y) / T(height);
+  const T s = ScalarTraits<T>::index_fraction(x, jitter_x, width);
+  const T t = T(1) - ScalarTraits<T>::index_fraction(y, jitter_y, height);
   const Vec3<T> lens = uniform_in_unit_disk(lens_u, lens_v);
   const Vec3<T> origin = camera.origin + lens.x * camera.lens_u + lens.y * camera.lens_v;
   const Vec3<T> target = camera.lower_left + s * camera.horizontal + t * camera.vertical;

@@ -366,11 +366,36 @@ struct ScalarTraits<Fixed<I, F>> {
     if (v < (i128(1) << 64)) return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(v)))));
     return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<u128>(static_cast<u128>(v)))));
   }
-  // trunc(n * 2^F / d) toward zero, for n and d with the same fraction bits, clamped to the range without counting
-  // (a distance beyond the range is beyond the scene); d = 0 gives +-max by the sign of n.
-  PT_HD static constexpr T exact_quotient(i128 n, i128 d) {
-    if (d == 0) return T::from_raw(n < 0 ? -T::kMaxRaw : T::kMaxRaw);
-    return T::from_raw(clamp_to_range((n * (i128(1) << F)) / d));
+  // The unit vector along (x, y, z) (exact values with 2F fraction bits, not all zero) and its length, each rounded
+  // once: the vector is first shifted right until its components have at most 30 bits (its direction keeps 29 bits
+  // at least, beyond any format of 32), so that the squares and their sum fit 64 bits. A triangle's normal from its
+  // edges' exact cross product survives edges whose cross product is below one step.
+  PT_HD static constexpr void exact_unit(i128 x, i128 y, i128 z, T& ux, T& uy, T& uz, T& length) {
+    auto magnitude = [](i128 v) { return v < 0 ? -v : v; };
+    i128 largest_component = magnitude(x) > magnitude(y) ? magnitude(x) : magnitude(y);
+    if (magnitude(z) > largest_component) largest_component = magnitude(z);
+    int shift = 0;
+    while ((largest_component >> shift) >= (i128(1) << 30)) ++shift;
+    const i64 sx = static_cast<i64>(x >> shift), sy = static_cast<i64>(y >> shift), sz = static_cast<i64>(z >> shift);
+    const std::uint64_t norm = fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(sx * sx + sy * sy + sz * sz));
+    if (norm == 0) {
+      ux = uy = uz = length = T::from_raw(0);
+      return;
+    }
+    ux = T::from_raw(clamp_to_range((static_cast<i128>(sx) << F) / static_cast<i128>(norm)));
+    uy = T::from_raw(clamp_to_range((static_cast<i128>(sy) << F) / static_cast<i128>(norm)));
+    uz = T::from_raw(clamp_to_range((static_cast<i128>(sz) << F) / static_cast<i128>(norm)));
+    // norm 2^shift has 2F fraction bits; the length F.
+    const int down = F - shift;
+    const i128 wide_length = down >= 0 ? (static_cast<i128>(norm) + (down > 0 ? (i128(1) << (down - 1)) : 0)) >> down : static_cast<i128>(norm) << -down;
+    length = T::from_raw(T::saturate(wide_length));
+  }
+  // numerator / denominator (both with the same fraction bits, the denominator nonzero), truncated toward zero as
+  // a divider does. A quotient out of range is a distance beyond anything in the scene, so it clamps uncounted.
+  // A zero denominator gives the largest value of the numerator's sign, as an infinite distance or density would.
+  PT_HD static constexpr T exact_quotient(i128 numerator, i128 denominator) {
+    if (denominator == 0) return T::from_raw(numerator < 0 ? -T::kMaxRaw : T::kMaxRaw);
+    return T::from_raw(clamp_to_range(numerator * (i128(1) << F) / denominator));
   }
   // A quad stores its dual edges times a power of two near the edge's length (Quad in kernel/shapes.hpp): sizes
   // near 1, which keep every fraction bit, where 1 / length (1/555 has 7 significant bits in Q16.16) would not.
@@ -385,6 +410,11 @@ struct ScalarTraits<Fixed<I, F>> {
     if (exponent < -F) exponent = -F;
     if (exponent > I - 3) exponent = I - 3;
     return std::ldexp(1.0, exponent);
+  }
+  // (index + offset) / count in integers, truncated as a divider does: the index and the count need not fit the
+  // format (a 160-pixel-wide image in Q8.24, whose largest value is 128).
+  PT_HD static constexpr T index_fraction(u32 index, T offset, u32 count) {
+    return T::from_raw(clamp_to_range(((static_cast<i128>(index) << F) + offset.raw) / static_cast<i128>(count)));
   }
   PT_HD static constexpr Raw clamp_to_range(i128 v) {
     return v > T::kMaxRaw ? T::kMaxRaw : (v < -static_cast<i128>(T::kMaxRaw) ? -T::kMaxRaw : static_cast<Raw>(v));

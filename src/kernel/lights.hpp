@@ -19,17 +19,29 @@ struct LightSample {
 
 // The power heuristic (exponent 2) for one sample of each strategy: the weight of the strategy with density `pdf`
 // when the other has `other`. Written with the ratio, so fixed-point formats do not square a large density.
+// With exact products (fixed point) both are one quotient of exact squares, pdf^2 / (pdf^2 + other^2) and
+// pdf / (pdf^2 + other^2): the ratio's square saturated wherever one density was 180 times the other (Q16.16).
 template <class T>
 PT_HD inline T mis_weight(T pdf, T other) {
   if (!(pdf > T(0))) return T(0);
-  const T ratio = other / pdf;
-  return T(1) / (T(1) + ratio * ratio);
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    return S::exact_quotient(S::exact(pdf) * S::exact(pdf), S::exact(pdf) * S::exact(pdf) + S::exact(other) * S::exact(other));
+  } else {
+    const T ratio = other / pdf;
+    return T(1) / (T(1) + ratio * ratio);
+  }
 }
 
 // mis_weight(pdf, other) / pdf, the factor a light sample is counted with, without dividing twice.
 template <class T>
 PT_HD inline T mis_weight_over_pdf(T pdf, T other) {
-  return T(1) / (pdf + other * (other / pdf));
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    return S::exact_quotient(S::exact(pdf) * S::exact(T(1)), S::exact(pdf) * S::exact(pdf) + S::exact(other) * S::exact(other));
+  } else {
+    return T(1) / (pdf + other * (other / pdf));
+  }
 }
 
 // Picks an entry of the alias table: a uniform index, then the entry or its alias.
@@ -102,15 +114,31 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
   Vec3<T> target;
   auto sphere = [&](const Vec3<T>& center, T radius) {
     const Vec3<T> to_center = center - from;
-    const T d2 = length_squared(to_center);
-    const T r2 = radius * radius;
-    if (d2 > r2) {
-      const T width = sphere_cone_width(r2, d2);
-      out.direction = direction_about(to_center / sqrt(d2), T(1) - u1 * width, u2);
-      // Where the direction enters the sphere; the tangent's length bounds it where rounding misses the sphere.
-      T near, far;
-      out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0) ? near : sqrt(d2 - r2);
-      return true;
+    if constexpr (ScalarTraits<T>::kExactProducts) {
+      // Fixed point: the distance, not its square (beyond the range for a light 200 units away in Q16.16), and the
+      // sine of the cone's half-angle, r / d.
+      using S = ScalarTraits<T>;
+      const T d = length(to_center);
+      if (d > radius) {
+        const T sine = radius / d;
+        out.direction = direction_about(to_center / d, T(1) - u1 * sphere_cone_width(sine * sine, T(1)), u2);
+        T near, far;
+        out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0)
+                           ? near
+                           : S::exact_sqrt(S::exact(d - radius) * S::exact(d + radius));
+        return true;
+      }
+    } else {
+      const T d2 = length_squared(to_center);
+      const T r2 = radius * radius;
+      if (d2 > r2) {
+        const T width = sphere_cone_width(r2, d2);
+        out.direction = direction_about(to_center / sqrt(d2), T(1) - u1 * width, u2);
+        // Where the direction enters the sphere; the tangent's length bounds it where rounding misses the sphere.
+        T near, far;
+        out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0) ? near : sqrt(d2 - r2);
+        return true;
+      }
     }
     target = center + radius * uniform_unit_vector(u1, u2);
     return false;
@@ -137,9 +165,8 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
     return false;
   }
   const Vec3<T> to_target = target - from;
-  const T len2 = length_squared(to_target);
-  if (!(len2 > T(0))) return false;
-  out.distance = sqrt(len2);
+  out.distance = length(to_target);  // not its square, which fixed point may not hold
+  if (!(out.distance > T(0))) return false;
   out.direction = to_target / out.distance;
   return true;
 }
@@ -155,16 +182,42 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   const Primitive<T>& primitive = scene.primitives[light.primitive];
   // An area density turned into one per solid angle: t^2 / |cos| at the light.
   const T cosine = abs(dot(at.geometric_normal, direction));
-  auto per_area = [&](T area) { return light.pmf * (t * t) / (cosine * area); };
+  // The area as two factors, so that fixed point need not hold the area itself (a 300 x 265 light is beyond
+  // Q16.16) nor t^2: there pmf t t / (cos a1 a2) is one quotient of exact products (kernel/shapes.hpp).
+  [[maybe_unused]] auto per_area2 = [&](T a1, T a2) {
+    if constexpr (ScalarTraits<T>::kExactProducts) {
+      using S = ScalarTraits<T>;
+      return S::exact_quotient(S::exact(light.pmf) * S::exact(t) * S::exact(t), S::exact(cosine) * S::exact(a1) * S::exact(a2));
+    } else {
+      return light.pmf * (t * t) / (cosine * (a1 * a2));
+    }
+  };
+  auto per_area = [&](T area) {
+    if constexpr (ScalarTraits<T>::kExactProducts) return per_area2(area, T(1));
+    else return light.pmf * (t * t) / (cosine * area);
+  };
   auto sphere = [&](const Vec3<T>& center, T radius) {
-    const T d2 = length_squared(center - from);
-    const T r2 = radius * radius;
-    if (d2 > r2) return light.pmf / (constant<T>(2) * pi<T>() * sphere_cone_width(r2, d2));
-    return per_area(constant<T>(4) * pi<T>() * r2);
+    if constexpr (ScalarTraits<T>::kExactProducts) {
+      const T d = length(center - from);
+      if (d > radius) {
+        const T sine = radius / d;
+        return light.pmf / (constant<T>(2) * pi<T>() * sphere_cone_width(sine * sine, T(1)));
+      }
+      return per_area2(constant<T>(4) * pi<T>() * radius, radius);
+    } else {
+      const T d2 = length_squared(center - from);
+      const T r2 = radius * radius;
+      if (d2 > r2) return light.pmf / (constant<T>(2) * pi<T>() * sphere_cone_width(r2, d2));
+      return per_area(constant<T>(4) * pi<T>() * r2);
+    }
   };
   if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) return sphere(s->center, s->radius);
   if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) return sphere(moving_sphere_center(*m, ray.time), m->radius);
-  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) return per_area(quad_area(*q));
+  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
+    // |u x v| = u_extent (v_extent / normal.(du x dv)) (quad_area).
+    if constexpr (ScalarTraits<T>::kExactProducts) return per_area2(q->u_extent, abs(q->v_extent / dot(q->normal, cross(q->du, q->dv))));
+    else return per_area(quad_area(*q));
+  }
   if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return per_area(triangle_area(tri->edge1, tri->edge2));
   if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
     const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];

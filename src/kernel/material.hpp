@@ -76,7 +76,18 @@ struct ScatterValue {
 // product with a grazing direction would round to zero.
 template <class T>
 PT_HD inline Ray<T> spawn_ray(const SurfacePoint<T>& at, const Vec3<T>& direction, T time) {
-  const T signed_offset = dot(direction, at.geometric_normal) < T(0) ? -at.offset : at.offset;
+  // The side the direction goes to. With exact products (fixed point) from the exact dot product, the sign a quad's
+  // test forms: a direction within rounding of the surface is sent off on the side the test will see it go.
+  bool inwards;
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    inwards = S::exact(direction.x) * S::exact(at.geometric_normal.x) + S::exact(direction.y) * S::exact(at.geometric_normal.y) +
+                  S::exact(direction.z) * S::exact(at.geometric_normal.z) <
+              0;
+  } else {
+    inwards = dot(direction, at.geometric_normal) < T(0);
+  }
+  const T signed_offset = inwards ? -at.offset : at.offset;
   return Ray<T>{at.p + signed_offset * at.geometric_normal, direction, time};
 }
 

@@ -76,6 +76,8 @@ struct ScalarTraits<float> {
   // exact), and stores a quad's dual edges as they are (an extent of 1, see Quad).
   static constexpr bool kExactProducts = false;
   static double quad_extent(double) { return 1; }
+  // (index + offset) / count: where a sample lies across the image, for pixel `index` of `count`.
+  PT_HD static float index_fraction(u32 index, float offset, u32 count) { return (static_cast<float>(index) + offset) / static_cast<float>(count); }
 };
 
 template <>
@@ -106,6 +108,7 @@ struct ScalarTraits<double> {
   PT_HD static double slab_distance(double bound, double reciprocal, double origin_term) { return bound * reciprocal - origin_term; }
   static constexpr bool kExactProducts = false;
   static double quad_extent(double) { return 1; }
+  PT_HD static double index_fraction(u32 index, double offset, u32 count) { return (static_cast<double>(index) + offset) / static_cast<double>(count); }
 };
 
 // Short names used throughout the kernels; they only forward to the traits.

@@ -435,6 +435,20 @@ PT_HD inline void set_face_normal(SurfacePoint<T>& at, const Ray<T>& ray, const 
 // whatever touches the surface (a small sphere resting on a large one).
 inline constexpr double kSpawnRoundings = 8;
 
+// The magnitude of the coordinates a hit point's error bound grows with. With exact products (fixed point, kernel
+// traits) a new test of a plane finds the side of the plane the ray starts on exactly, and the re-projected or
+// interpolated point lies within a few steps of the plane whatever the coordinates' size: the bound of quads and
+// triangles is kSpawnRoundings steps, absolute. A sphere's test forms the distance from the centre across the ray
+// as if the direction were unit; its length is 1 only to a step, so that distance carries a step per unit of
+// |origin - centre|, the radius: the bound grows with the radius, not with the centre's coordinates (with Q16.16 at
+// scale 1 the bound of |centre| + radius moved rays 0.24 units off seed-default's ground, more than the radius,
+// 0.2, of the small spheres resting on it; the radius alone gives 0.12).
+template <class T>
+PT_HD inline Vec3<T> spawn_magnitude(const Vec3<T>& magnitude) {
+  if constexpr (ScalarTraits<T>::kExactProducts) return Vec3<T>{};
+  else return magnitude;
+}
+
 template <class T>
 PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_normal, const Vec3<T>& error) {
   at.geometric_normal = unit_normal;
@@ -448,9 +462,9 @@ PT_HD inline void set_spawn_offset(SurfacePoint<T>& at, const Vec3<T>& unit_norm
 template <class T>
 PT_HD inline void set_tangent_frame(SurfacePoint<T>& at, const Vec3<T>& outward, const Vec3<T>& dpdu, const Vec3<T>& dpdv) {
   const Vec3<T> along = dpdu - dot(dpdu, outward) * outward;
-  const T length2 = length_squared(along);
-  if (!(length2 > T(0)) || !is_finite(length2)) return;
-  const Vec3<T> tangent = along / sqrt(length2);
+  const T along_length = length(along);  // not its square, which fixed point may not hold
+  if (!(along_length > T(0)) || !is_finite(along_length)) return;
+  const Vec3<T> tangent = along / along_length;
   const T handedness = dot(cross(outward, tangent), dpdv) < T(0) ? T(-1) : T(1);
   at.tangent = at.front_face ? tangent : -tangent;
   at.handedness = at.front_face ? handedness : -handedness;
@@ -496,17 +510,29 @@ PT_HD inline TriangleSurface<T> triangle_surface(const Vec3<T>& p0, const Vec3<T
                                                  const Vec3<T>* normals, const T* us, const T* vs, bool needs_tangent = false,
                                                  const MeshTangent<T>* tangents = nullptr) {
   TriangleSurface<T> s;
-  const Vec3<T> area_normal = cross(edge1, edge2);
-  const T twice_area = length(area_normal);
-  s.geometric = area_normal / twice_area;
+  T twice_area;
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    // From the exact cross product: edges of 0.01 have one below a step of Q16.16, whose normal was 0 / 0.
+    const ExactVec3<T> area_normal = exact_cross(edge1, edge2);
+    ScalarTraits<T>::exact_unit(area_normal.x, area_normal.y, area_normal.z, s.geometric.x, s.geometric.y, s.geometric.z, twice_area);
+  } else {
+    const Vec3<T> area_normal = cross(edge1, edge2);
+    twice_area = length(area_normal);
+    s.geometric = area_normal / twice_area;
+  }
   // From the barycentrics the point lies on the triangle's plane up to the rounding of the interpolation. A new
   // test measures the distance to the plane through cross products of the edges, whose rounding, relative to
   // that distance, grows as 1 / sin of the corner's angle, |e1| |e2| / |e1 x e2|.
   const Vec3<T> along1 = hit.b1 * edge1, along2 = hit.b2 * edge2;
   s.p = p0 + along1 + along2;
-  const T skew = length(edge1) * length(edge2) / twice_area;
   const T roundings = constant<T>(kSpawnRoundings);
-  s.error = rounding_error(vabs(p0) + vabs(along1) + vabs(along2), roundings) + rounding_error(vabs(edge1) + vabs(edge2), roundings * skew);
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    // The new test's plane distance is exact: no term for the edges' cross products.
+    s.error = rounding_error(spawn_magnitude(vabs(p0) + vabs(along1) + vabs(along2)), roundings);
+  } else {
+    const T skew = length(edge1) * length(edge2) / twice_area;
+    s.error = rounding_error(vabs(p0) + vabs(along1) + vabs(along2), roundings) + rounding_error(vabs(edge1) + vabs(edge2), roundings * skew);
+  }
   const T b0 = T(1) - hit.b1 - hit.b2;
   s.shading = s.geometric;
   s.u = hit.b1;
@@ -553,9 +579,22 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       // the same direction divided by the radius (unit to within the hit point's error), so that the shading, which
       // waits for it, does not wait for the square root.
       const Vec3<T> from_center = at.p - center;
-      const Vec3<T> outward = from_center / radius;
-      at.p = center + from_center * (radius / length(from_center));
-      set_spawn_offset(at, outward, rounding_error(vabs(center) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
+      Vec3<T> outward;
+      if constexpr (ScalarTraits<T>::kExactProducts) {
+        // Each coordinate one quotient of exact products, (p - c) r / |p - c|: radius / |p - c| rounded to the
+        // format would carry a step of relative error into a radius of 1000. The normal likewise, (p - c) / |p - c|:
+        // (p - c) / r is unit only to the point's error over the radius (1e-4 for a radius of 0.2 in Q16.16), and
+        // directions reflected about it as far from unit, which a sphere's test turns into distance errors.
+        using S = ScalarTraits<T>;
+        const auto distance = S::exact(length(from_center)) * S::exact(T(1));
+        auto along = [&](T component, T size) { return S::exact_quotient(S::exact(component) * S::exact(size), distance); };
+        outward = Vec3<T>{along(from_center.x, T(1)), along(from_center.y, T(1)), along(from_center.z, T(1))};
+        at.p = center + Vec3<T>{along(from_center.x, radius), along(from_center.y, radius), along(from_center.z, radius)};
+      } else {
+        outward = from_center / radius;
+        at.p = center + from_center * (radius / length(from_center));
+      }
+      set_spawn_offset(at, outward, rounding_error(spawn_magnitude(vabs(center)) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);
       // u grows as atan2(z, x) falls (sphere_uv), v towards +y: dp/du is along (z, 0, -x), and dp/dv along
@@ -633,7 +672,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
       // Re-projected onto the quad's plane, the point's error no longer grows with the ray's length; a new test
       // rounds the distance from the corner.
       at.p = at.p - dot(q.normal, at.p - q.corner) * q.normal;
-      set_spawn_offset(at, q.normal, rounding_error(vabs(at.p) + vabs(at.p - q.corner), constant<T>(kSpawnRoundings)));
+      set_spawn_offset(at, q.normal, rounding_error(spawn_magnitude(vabs(at.p) + vabs(at.p - q.corner)), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, q.normal);
       at.u = hit.b1;
       at.v = hit.b2;

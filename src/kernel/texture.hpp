@@ -23,7 +23,10 @@ template <class T> struct UvCheckerTexture { Color<T> odd, even; T columns, rows
 template <class T> struct ImageTexture { u32 width, height, offset; T repeat; Color<T> factor; u32 linear = 0; };
 
 enum class NoiseKind : u32 { kPerlin = 0, kTurbulence = 1, kMarble = 2 };
-template <class T> struct NoiseTexture { T scale; NoiseKind kind; u32 turbulence_depth; };
+// `scale` multiplies the position the noise reads. The marble's turbulence reads the position itself, in the scene's
+// units as written: `unscale` (1 as written) undoes the lengths' scaling by flatten_scene (fixed point), so that the
+// veins stay where they are.
+template <class T> struct NoiseTexture { T scale; NoiseKind kind; u32 turbulence_depth; T unscale; };
 
 template <class T>
 using Texture = std::variant<SolidTexture<T>, CheckerTexture<T>, UvCheckerTexture<T>, ImageTexture<T>, NoiseTexture<T>>;
@@ -140,7 +143,7 @@ PT_HD inline Color<T> texture_value(const Texture<T>& texture, const TexturePoin
       switch (t.kind) {
         case NoiseKind::kPerlin: value = constant<T>(0.5) * (T(1) + perlin_noise(data, p)); break;
         case NoiseKind::kTurbulence: value = perlin_turbulence(data, p, t.turbulence_depth); break;
-        default: value = constant<T>(0.5) * (T(1) + sin(p.z + constant<T>(10) * perlin_turbulence(data, at.p, t.turbulence_depth))); break;
+        default: value = constant<T>(0.5) * (T(1) + sin(p.z + constant<T>(10) * perlin_turbulence(data, t.unscale * at.p, t.turbulence_depth))); break;
       }
       return Color<T>::splat(value);
     }

@@ -32,7 +32,16 @@ template <class T> PT_HD inline Vec3<T> cross(const Vec3<T>& a, const Vec3<T>& b
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 template <class T> PT_HD inline T length_squared(const Vec3<T>& a) { return dot(a, a); }
-template <class T> PT_HD inline T length(const Vec3<T>& a) { return sqrt(dot(a, a)); }
+// |a|. Formats with exact products (fixed point, ScalarTraits::kExactProducts) sum the exact squares and round once,
+// by the root: the square of a length well inside the range can lie far beyond it (555^2 in Q16.16).
+template <class T> PT_HD inline T length(const Vec3<T>& a) {
+  if constexpr (ScalarTraits<T>::kExactProducts) {
+    using S = ScalarTraits<T>;
+    return S::exact_sqrt(S::exact(a.x) * S::exact(a.x) + S::exact(a.y) * S::exact(a.y) + S::exact(a.z) * S::exact(a.z));
+  } else {
+    return sqrt(dot(a, a));
+  }
+}
 template <class T> PT_HD inline Vec3<T> normalize(const Vec3<T>& a) { return a / length(a); }
 template <class T> PT_HD inline Vec3<T> lerp(const Vec3<T>& a, const Vec3<T>& b, T t) { return a * (T(1) - t) + b * t; }
 template <class T> PT_HD inline Vec3<T> vmin(const Vec3<T>& a, const Vec3<T>& b) { return {min(a.x, b.x), min(a.y, b.y), min(a.z, b.z)}; }

@@ -392,7 +392,7 @@ class SceneReader {
       }
       const double scale = n.has("scale") ? n.child("scale").positive() : 1.0;
       const u32 depth = n.has("turbulence_depth") ? n.child("turbulence_depth").integer(1, 16) : 7;
-      return add_texture(NoiseTexture<double>{scale, kind, depth}, n.pointer());
+      return add_texture(NoiseTexture<double>{scale, kind, depth, 1}, n.pointer());
     }
     n.child("type").fail(fmt::format("unknown texture type '{}' (expected solid, checker, uv_checker, image or noise)", type));
   }
