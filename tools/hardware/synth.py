@@ -148,6 +148,31 @@ def synthesise(name: str, fmt: str, work: Path, timeout: float, pnr: bool, ice40
     return row
 
 
+def print_table(path: Path) -> None:
+    """The synthesis results as the Markdown table of docs/hardware.md."""
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    order = {u: k for k, u in enumerate(["box", "triangle", "quad", "sphere"])}
+    rows.sort(key=lambda r: (order.get(r["unit"], 9), int(r["bits"]), r["format"]))
+    print("| unit | format | clocks | 7-series LUTs (+ SRL) | FFs | DSP48E1 | CARRY4 | iCE40 LUT4 | FFs | SB_MAC16 | iCE40 fit, max clock |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        if r["status"] != "ok":
+            luts = f"{r['xc7_luts']} (+{r['xc7_srls']})" if r["xc7_luts"] else "-"
+            print(f"| {r['unit']} | {r['format']} | {r['latency']} | {luts} | {r['xc7_ffs'] or '-'} | {r['xc7_dsp48'] or '-'} | "
+                  f"{r['xc7_carry4'] or '-'} | iCE40: {r['status']} | | | |")
+            continue
+        fit = r["ice40_device"] or "-"
+        if r.get("ice40_fmax_mhz"):
+            fit = f"{fit.upper()}, {r['ice40_fmax_mhz']} MHz"
+        elif fit.startswith("none (over"):
+            fit = "not synthesised (far too large)"
+        elif fit == "none":
+            fit = "does not fit"
+        print(f"| {r['unit']} | {r['format']} | {r['latency']} | {r['xc7_luts']} (+{r['xc7_srls']}) | {r['xc7_ffs']} | {r['xc7_dsp48']} | {r['xc7_carry4']} | "
+              f"{r['ice40_luts'] or '-'} | {r['ice40_ffs'] or '-'} | {r['ice40_mac16'] or '-'} | {fit} |")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description="Synthesise the intersection units and write their cost as CSV")
     parser.add_argument("--output", required=True)
@@ -159,8 +184,12 @@ def main() -> int:
                         help="skip the iCE40 synthesis of units needing more DSP48E1 than this on 7-series")
     parser.add_argument("--redo", action="store_true", help="synthesise again the rows already in the output")
     parser.add_argument("--work", help="keep the netlists here")
+    parser.add_argument("--table", action="store_true", help="print the output's rows as a Markdown table and stop")
     args = parser.parse_args()
     output = Path(args.output)
+    if args.table:
+        print_table(output)
+        return 0
     rows = {}
     if output.exists() and not args.redo:
         with output.open() as f:
