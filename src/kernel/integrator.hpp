@@ -88,6 +88,13 @@ PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathSta
   ++path.shadow_rays;
 }
 
+// exp(-optical_depth), the share of light a constant medium lets through; most shadow rays cross no medium and skip
+// the exponential (exp(-0) is exactly 1 in every scalar type, so the result is the same).
+template <class T>
+PT_HD inline T transmittance(T optical_depth) {
+  return optical_depth > T(0) ? exp(-optical_depth) : T(1);
+}
+
 // What a shadow ray adds to its path's radiance: the light's emission where the ray meets the light it aimed at
 // before anything else, times the transmittance of the media it crosses (exact for constant media: exp(-density x
 // length inside)), weighted by MIS against scattering.
@@ -101,7 +108,7 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
     const T light_density = light.pmf * background_pdf(scene.background, shadow.ray.direction);
     // A direction that rounds into a black texel of an environment image has no density there: it carries nothing.
     if (blocked || !(light_density > T(0))) return Color<T>{};
-    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * exp(-optical_depth));
+    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
   }
   if (!blocked || hit.primitive != light.primitive || hit.triangle != shadow.triangle) return Color<T>{};
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
@@ -109,7 +116,7 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
   const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));
   const T light_density = shadow.light_pdf > T(0) ? shadow.light_pdf : light_pdf(scene, shadow.entry, shadow.ray, hit, at);
   if (!(light_density > T(0))) return Color<T>{};
-  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * exp(-optical_depth));
+  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
 }
 
 // The path hit something: it gathers the emission there, picks a light to sample (next-event estimation: the shadow
