@@ -54,6 +54,13 @@ RenderStats film_stats(std::span<const FilmPixel> film, u32 samples_per_pixel) {
   return stats;
 }
 
+u32 next_pass_samples(double elapsed, u32 samples, u32 last, double pass_seconds, double time_left) {
+  const double per_sample = samples > 0 ? elapsed / samples : 0;
+  double wanted = per_sample > 0 ? pass_seconds / per_sample : 2.0 * last;
+  if (time_left > 0 && per_sample > 0) wanted = std::min(wanted, time_left / per_sample);
+  return static_cast<u32>(std::clamp(wanted, 1.0, std::max(1.0, 4.0 * last)));
+}
+
 template <class T>
 RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, const ProgressCallback& progress, const RenderControl& control) {
   using Clock = std::chrono::steady_clock;
@@ -93,12 +100,10 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     const double rate = elapsed > 0 ? (done - first) * pixels / elapsed : 0;
     if (progress) progress(Progress{done, total, elapsed, rate});
     if (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds) save();
-    // Aim for passes of about half a second: often enough to report and to stop, rarely enough to cost nothing;
-    // and none that runs far past a time limit.
-    const double per_sample = elapsed / (done - first);
-    double wanted = per_sample > 0 ? 0.5 / per_sample : 2.0 * pass;
-    if (control.time_limit_seconds > 0 && per_sample > 0) wanted = std::min(wanted, (control.time_limit_seconds - elapsed) / per_sample);
-    pass = static_cast<u32>(std::clamp(wanted, 1.0, std::max(1.0, 4.0 * pass)));
+    // Passes of the backend's length (half a second, as a rule): often enough to report and to stop, rarely
+    // enough to cost nothing.
+    pass = next_pass_samples(elapsed, done - first, pass, backend.pass_seconds(),
+                             control.time_limit_seconds > 0 ? std::max(control.time_limit_seconds - elapsed, 1e-9) : 0.0);
   }
   if (done > first) save();  // stopped or finished, either can be resumed (a finished render to more samples)
   const double render_seconds = seconds_since(start);
