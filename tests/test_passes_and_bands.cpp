@@ -51,20 +51,6 @@ class OtherProcessWorker final : public BandWorker {
   u32 width_;
 };
 
-TEST(PassLength, LongerWhereBandsGoToOtherProcesses) {
-  const FlatScene<float> scene = test::flatten<float>(load_scene_file(test::scene_path("tiny.json")));
-  std::vector<std::unique_ptr<RenderBackend<float>>> one;
-  one.push_back(make_cpu_backend<float>(1));
-  const MultiBackend<float> local(std::move(one));
-  std::vector<std::unique_ptr<RenderBackend<float>>> devices;
-  devices.push_back(make_cpu_backend<float>(1));
-  std::vector<std::unique_ptr<BandWorker>> remote;
-  remote.push_back(std::make_unique<OtherProcessWorker>(scene, scene.params.width));
-  const MultiBackend<float> shared(std::move(devices), std::move(remote));
-  EXPECT_EQ(local.pass_seconds(), 0.5);
-  EXPECT_GE(shared.pass_seconds(), 4 * local.pass_seconds());
-}
-
 TEST(BandsWithAnotherProcess, ImageIsBitwiseThatOfOneDevice) {
   SceneDescription description = load_scene_file(test::scene_path("tiny.json"));
   description.render.samples_per_pixel = 6;

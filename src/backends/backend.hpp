@@ -62,11 +62,6 @@ class RenderBackend {
   // Fixed-point saturation events since the last upload; 0 where the backend does not count them (GPUs).
   virtual u64 saturations() const { return 0; }
 
-  // The wall time a render pass should take (film/film.cpp). Short passes report progress, stop and checkpoint
-  // promptly; a backend whose every pass costs a fixed amount besides its samples (films sent to other processes
-  // and back) asks for longer ones.
-  virtual double pass_seconds() const { return 0.5; }
-
   // Where the work went when several devices or processes render one image: each one's name and the
   // pixel-samples it rendered since the last upload; empty for a single device.
   virtual std::vector<std::pair<std::string, u64>> work_shares() const { return {}; }

@@ -100,9 +100,9 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     const double rate = elapsed > 0 ? (done - first) * pixels / elapsed : 0;
     if (progress) progress(Progress{done, total, elapsed, rate});
     if (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds) save();
-    // Passes of the backend's length (half a second, as a rule): often enough to report and to stop, rarely
-    // enough to cost nothing.
-    pass = next_pass_samples(elapsed, done - first, pass, backend.pass_seconds(),
+    // Passes of about half a second: often enough to report and to stop (mpirun kills ranks 1 s after passing on
+    // a SIGTERM, so rank 0 must end its pass, save and write within it), rarely enough to cost nothing.
+    pass = next_pass_samples(elapsed, done - first, pass, 0.5,
                              control.time_limit_seconds > 0 ? std::max(control.time_limit_seconds - elapsed, 1e-9) : 0.0);
   }
   if (done > first) save();  // stopped or finished, either can be resumed (a finished render to more samples)

@@ -29,8 +29,8 @@ struct Progress {
 
 using ProgressCallback = std::function<void(const Progress&)>;
 
-// Samples per pixel of the next render pass, so that it takes about `pass_seconds` (the backend's
-// RenderBackend::pass_seconds) at the pace so far: `samples` took `elapsed` seconds and the last pass had `last`.
+// Samples per pixel of the next render pass, so that it takes about `pass_seconds` at the pace so far: `samples`
+// took `elapsed` seconds and the last pass had `last`.
 // At least 1; at most 4 times the last, so that one fast pass misjudged does not make the next run long; and, under
 // a time limit (`time_left` seconds, 0 for none), no more than fit before it.
 u32 next_pass_samples(double elapsed, u32 samples, u32 last, double pass_seconds, double time_left = 0);

@@ -30,7 +30,6 @@ MultiBackend<T>::MultiBackend(std::vector<std::unique_ptr<RenderBackend<T>>> dev
                               const std::string& label)
     : devices_(std::move(devices)) {
   for (auto& device : devices_) workers_.push_back(std::make_unique<DeviceWorker>(*device, label));
-  remote_ = !remote.empty();
   for (auto& worker : remote) workers_.push_back(std::move(worker));
   if (workers_.empty()) throw BackendError("no device to render on");
   for (auto& worker : workers_) worker_pointers_.push_back(worker.get());
@@ -114,14 +113,6 @@ u64 MultiBackend<T>::saturations() const {
   u64 total = 0;
   for (const auto& device : devices_) total += device->saturations();
   return total;
-}
-
-// A band that goes to another process takes its film there and back, megabytes whatever the samples: with passes
-// of half a second that was 12-13 % of a remote rank's time on a 2-core machine (docs/distributed.md, "Passes").
-// Passes four times as long spend a quarter of it, and still report progress and stop within seconds.
-template <class T>
-double MultiBackend<T>::pass_seconds() const {
-  return remote_ ? 2.0 : 0.5;
 }
 
 template <class T>

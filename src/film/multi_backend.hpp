@@ -33,7 +33,6 @@ class MultiBackend final : public RenderBackend<T> {
   std::optional<double> device_seconds() const override;
   std::vector<std::pair<std::string, double>> stage_seconds() const override;
   u64 saturations() const override;
-  double pass_seconds() const override;
   std::vector<std::pair<std::string, u64>> work_shares() const override;
 
  private:
@@ -45,7 +44,6 @@ class MultiBackend final : public RenderBackend<T> {
   // One device and no one else: nothing to share out, so the film stays on the device and passes go to it whole
   // (no band copies: `--device all` on a machine of one GPU costs what `--device 0` does).
   bool alone_ = false;
-  bool remote_ = false;  // some workers are other processes
   std::vector<FilmPixel> film_;  // the whole image's sums, but when alone
   std::vector<double> row_costs_;  // seconds a sample of each row took when last rendered (render_bands)
   u32 width_ = 0, height_ = 0;
