@@ -16,10 +16,9 @@
 #   select     1 clock: c ? a : b
 # Denormals: flushed to zero on input and output (FTZ and DAZ, as GPUs do under fast math and x86 does with MXCSR's
 # FTZ and DAZ bits set, which the testbench sets before calling the kernel). An input with a zero exponent is read as
-# a zero of its sign (min and max give it so, as x86's minss and maxss do under DAZ); a result whose exact value is
-# below the normal range, 2^-126, is a zero of the result's sign, even where it would round up to 2^-126 (x86's FTZ
-# judges before rounding). Supporting denormals would need a normalising shift on each multiplier input and a denormalising one
-# on each output, for values the renderer never produces.
+# a zero of its sign (min and max give it so, as x86's minss and maxss do under DAZ); a result whose exponent after
+# rounding (unbounded) is below the normal range is a zero of the result's sign. Supporting denormals would need a
+# normalising shift on each multiplier input and a denormalising one on each output.
 # Infinities follow IEEE-754 (overflow rounds to infinity, as round to nearest does). Every NaN result is the
 # canonical quiet NaN 0x7fc00000; x86 returns the first NaN operand or its own default NaN 0xffc00000 instead, so the
 # testbench counts any NaN as equal to any NaN and compares every other value bit for bit.
@@ -187,8 +186,8 @@ COMPARE_FUNCTIONS = """  // IEEE-754 comparisons of binary32 values (denormals r
 
 # Rounding a normalised significand (24 bits, the leading one at the top) with its guard and sticky bits to nearest
 # even, and packing the result with overflow to infinity and flush to zero. The exponent is signed and unbounded
-# (12 bits). Overflow is judged after rounding (a carry out of the significand can make it); the flush to zero
-# before rounding, on the exact result: x86 with FTZ flushes a product just below 2^-126 that would round up to it.
+# (12 bits), so that a carry out of the rounding is seen before the range is checked: overflow and tininess are
+# judged after rounding, as x86 does (a product just below 2^-126 that rounds up to it is 2^-126, not zero).
 ROUND_FUNCTION = """  function [31:0] float32_round(input sign, input signed [11:0] exponent, input [23:0] significand, input guard,
                                 input sticky, input truncate);
     reg [24:0] rounded;
@@ -196,8 +195,8 @@ ROUND_FUNCTION = """  function [31:0] float32_round(input sign, input signed [11
     begin
       rounded = {1'b0, significand} + ((!truncate && guard && (sticky || significand[0])) ? 25'd1 : 25'd0);
       e = rounded[24] ? exponent + 12'sd1 : exponent;
-      if (exponent <= 12'sd0) float32_round = {sign, 31'd0};
-      else if (e >= 12'sd255) float32_round = {sign, 8'hff, 23'd0};
+      if (e >= 12'sd255) float32_round = {sign, 8'hff, 23'd0};
+      else if (e <= 12'sd0) float32_round = {sign, 31'd0};
       else float32_round = {sign, e[7:0], rounded[24] ? rounded[23:1] : rounded[22:0]};
     end
   endfunction
