@@ -4,7 +4,7 @@
 # LUT4s, flip-flops, SB_MAC16, carries), and where a unit fits an iCE40 (HX8K without DSPs, UP5K with its eight
 # MAC16: a 16-bit box unit), its maximum clock after placement and routing by nextpnr-ice40.
 #
-#   tools/hardware/synth.py --output docs/hardware/synthesis.csv [--units box,triangle] [--formats 16.16,24.8]
+#   tools/hardware/synth.py --output docs/hardware/synthesis.csv [--units box,triangle] [--formats 16.16,24.8,float32]
 #
 # Yosys runs one at a time (single-threaded); a unit and format that does not finish within --timeout seconds is
 # written with status "timeout". Rows already in the output file are kept and skipped (--redo reruns them), so a long
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from units import UNITS, build, parse_format  # noqa: E402
+from units import UNITS, build, format_label, parse_format  # noqa: E402
 
 FIELDS = ["unit", "format", "bits", "latency", "adds", "multiplies", "divides", "square_roots", "compares",
           "exact_multiplies", "exact_adds",
@@ -102,7 +102,7 @@ def synthesise(name: str, fmt: str, work: Path, timeout: float, pnr: bool, ice40
     integer, fraction = parse_format(fmt)
     u = build(name, integer, fraction)
     c = u.costs()
-    row = {"unit": name, "format": f"q{integer}.{fraction}", "bits": u.W, "latency": u.latency(), "adds": c.add, "multiplies": c.mul,
+    row = {"unit": name, "format": format_label(u), "bits": u.W, "latency": u.latency(), "adds": c.add, "multiplies": c.mul,
            "divides": c.div, "square_roots": c.sqrt, "compares": c.compare, "exact_multiplies": c.exact_mul,
            "exact_adds": c.exact_add, "status": "ok"}
     verilog = work / f"{u.module_name}.v"
@@ -177,7 +177,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description="Synthesise the intersection units and write their cost as CSV")
     parser.add_argument("--output", required=True)
     parser.add_argument("--units", default=",".join(["box", "triangle", "quad", "sphere"]))
-    parser.add_argument("--formats", default="8.8,10.10,12.12,16.16,20.12,24.8,32.32")
+    parser.add_argument("--formats", default="8.8,10.10,12.12,16.16,20.12,24.8,32.32,float32")
     parser.add_argument("--timeout", type=float, default=1800, help="seconds per Yosys or nextpnr run")
     parser.add_argument("--no-place", action="store_true", help="skip nextpnr")
     parser.add_argument("--ice40-dsp-limit", type=int, default=40,
@@ -199,8 +199,7 @@ def main() -> int:
     work.mkdir(parents=True, exist_ok=True)
     for fmt in args.formats.split(","):
         for name in args.units.split(","):
-            integer, fraction = parse_format(fmt)
-            key = (name, f"q{integer}.{fraction}")
+            key = (name, "float32" if fmt == "float32" else "q{}.{}".format(*parse_format(fmt)))
             if key in rows and rows[key].get("status") == "ok":
                 continue
             if name not in UNITS:
