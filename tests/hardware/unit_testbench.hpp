@@ -4,8 +4,8 @@
 //
 // Included once per unit and format by a generated source that defines PT_UNIT_PORTS (the generated port binding
 // header), PT_UNIT_BINDING (its namespace), PT_UNIT_OPERANDS (the unit's entry in hardware/operands.hpp),
-// PT_INTEGER_BITS, PT_FRACTION_BITS (both 0 for float32, which PT_FLOAT32 selects), PT_TESTBENCH_ENTRY (the name of the function it defines; hardware_testbench.cpp
-// picks one by unit and format) and PT_TESTBENCH_NAMESPACE (where its own definitions go, so that a unity build may
+// PT_INTEGER_BITS, PT_FRACTION_BITS (both 0 for float32, which PT_FLOAT32 selects), PT_TESTBENCH_ENTRY (the name of
+// the function it defines; hardware_testbench.cpp picks one by unit and format) and PT_TESTBENCH_NAMESPACE (where its own definitions go, so that a unity build may
 // put several testbenches in one source: this file has no include guard on purpose).
 // The entry returns non-zero on any difference, or when fewer recorded sets arrive than asked for.
 // float32: the model runs with denormals flushed to zero on input and output (MXCSR's DAZ and FTZ bits, set for the
@@ -48,6 +48,7 @@ constexpr int kOutputs = static_cast<int>(Operands::kOutputs.size());
 // The range's end and one as raw values (a float's bits), and the largest value and smallest step as doubles.
 template <class U> constexpr i64 max_raw() { if constexpr (std::is_same_v<U, float>) return 0x7f7fffff; else return U::kMaxRaw; }
 template <class U> constexpr i64 one_raw() { if constexpr (std::is_same_v<U, float>) return 0x3f800000; else return i64(1) << U::kFractionBits; }
+template <class U> constexpr int total_bits() { if constexpr (std::is_same_v<U, float>) return 32; else return U::kTotalBits; }
 constexpr i64 kMax = max_raw<T>();
 constexpr i64 kOne = one_raw<T>();
 const double kLargest = kFloat ? static_cast<double>(FLT_MAX) : static_cast<double>(kMax) / static_cast<double>(kOne);
@@ -94,7 +95,6 @@ struct EdgeCases {
   }
   i64 extreme() {
     if constexpr (kFloat) return extreme_float();
-
     static const i64 kValues[] = {0, 1, -1, 2, -2, kOne, -kOne, kOne - 1, kOne + 1, -kOne + 1, kMax, -kMax, kMax - 1, -kMax + 1,
                                   kMax / 2, -kMax / 2, kOne / 2, -kOne / 2, kOne * 2, -kOne * 2};
     std::uniform_int_distribution<int> pick(0, sizeof(kValues) / sizeof(kValues[0]) + 3);
@@ -107,7 +107,7 @@ struct EdgeCases {
   // next to 1, very large and very small ones, random bit patterns and random values of the size of directions.
   i64 extreme_float() {
     static const float kValues[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, -0.5f, 2.0f, -2.0f, FLT_MAX, -FLT_MAX, FLT_MIN, -FLT_MIN,
-                                    value<float>(1), value<float>(0x007fffff), value<float>(0x80000001), FLT_MAX * 2, -FLT_MAX * 2,
+                                    value<float>(1), value<float>(0x007fffff), value<float>(0x80000001), INFINITY, -INFINITY,
                                     value<float>(0x7fc00000), 1e-20f, -1e-20f, 1e20f, -1e20f, 1e-30f, 1e30f, -1e30f,
                                     value<float>(0x3f7fffff), value<float>(0x3f800001), 3.0f, 1e-3f, 1e3f};
     constexpr int kCount = sizeof(kValues) / sizeof(kValues[0]);
@@ -123,7 +123,7 @@ struct EdgeCases {
       // A quad's extents are powers of two wherever flatten_scene makes them: any power within the range.
       // (Float stores extents of 1, ScalarTraits<float>::quad_extent.)
       for (int k = Operands::kFirstExtent; k < Operands::kFirstExtent + Operands::kExtents; ++k)
-        set[k] = kFloat ? kOne : i64(1) << std::uniform_int_distribution<int>(0, 8 * static_cast<int>(sizeof(T)) - 3)(rng);
+        set[k] = kFloat ? kOne : i64(1) << std::uniform_int_distribution<int>(0, total_bits<T>() - 3)(rng);
       add(set);
     }
   }
