@@ -21,6 +21,7 @@
 # Values are signed W = I + F bit integers (the raw field of Fixed) unless exact. Every operation but the bit logic ends in a
 # register, so that a new operand set can enter every clock; the scheduler places each operation as early as its
 # operands allow and delays values through register chains to the stage where they are used.
+# float32.py builds the same graphs on IEEE-754 binary32 values (a Unit subclass with its own operators).
 
 from __future__ import annotations
 
