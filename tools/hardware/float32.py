@@ -25,7 +25,7 @@
 
 from __future__ import annotations
 
-from dataflow import Emitter, Unit
+from dataflow import Emitter, Unit, Value
 
 ONE = 0x3F800000
 NAN = 0x7FC00000
@@ -71,7 +71,7 @@ class FloatUnit(Unit):
     def root_latency(self, radicand_bits: int | None = None) -> int:
         return 2 + -(-25 // self.root_steps)
 
-    def const(self, bits: int) -> "Value":
+    def const(self, bits: int) -> Value:
         assert 0 <= bits < (1 << 32)
         return self._value("const", (), self.W, 0, bits)
 
