@@ -193,7 +193,7 @@ def print_table(path: Path) -> None:
         elif fit == "none":
             fit = "does not fit"
         if r["status"] != "ok":  # "ok, iCE40 without ice40_dsp"
-            fit += " (iCE40: registers and adders not packed into the MAC16, see ICE40_UNPACKED)"
+            fit += " (iCE40 without the ice40_dsp pass: registers and adders not packed into the MAC16)"
         print(f"| {r['unit']} | {r['format']} | {r['latency']} | {r['xc7_luts']} (+{r['xc7_srls']}) | {r['xc7_ffs']} | {r['xc7_dsp48']} | {r['xc7_carry4']} | "
               f"{r['ice40_luts'] or '-'} | {r['ice40_ffs'] or '-'} | {r['ice40_mac16'] or '-'} | {fit} |")
 
