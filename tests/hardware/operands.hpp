@@ -17,6 +17,18 @@ using i64 = std::int64_t;
 
 template <class T> i64 raw(T v) { return static_cast<i64>(v.raw); }
 template <class T> T value(i64 r) { return T::from_raw(static_cast<typename T::Storage>(r)); }
+// A float's raw value is its bit pattern, sign-extended from 32 bits as the testbench reads a unit's outputs.
+inline i64 raw(float v) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  return static_cast<std::int32_t>(bits);
+}
+template <> inline float value<float>(i64 r) {
+  const std::uint32_t bits = static_cast<std::uint32_t>(r);
+  float v;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
 template <class T> void put(i64*& out, const Vec3<T>& v) { *out++ = raw(v.x); *out++ = raw(v.y); *out++ = raw(v.z); }
 template <class T> void put(i64*& out, T v) { *out++ = raw(v); }
 template <class T> Vec3<T> get3(const i64*& in) { const Vec3<T> v{value<T>(in[0]), value<T>(in[1]), value<T>(in[2])}; in += 3; return v; }

@@ -1,7 +1,8 @@
-// Records the operand sets one intersection unit receives in real renders of scenes, in a fixed-point format, and
-// writes them to stdout for the unit's Verilator testbench:
+// Records the operand sets one intersection unit receives in real renders of scenes, in a fixed-point format or in
+// float32, and writes them to stdout for the unit's Verilator testbench:
 //
 //   pt_record_operands --unit box --format q16.16 --count 1000000 scenes/cornell-box.json scenes/tiny.json ...
+//   pt_record_operands --unit box --format float32 ...
 //
 // Paths are traced by the kernel's own functions (start_path, path_shade and its shadow rays, as trace_sample does),
 // with the closest-hit query walking the binary BVH as GPUs do (walk_binary, SceneLeaf, MeshLeaf) so that each box
@@ -266,8 +267,11 @@ int run(int argc, char** argv) {
       StreamHeader header{};
       std::memcpy(header.magic, kStreamMagic, sizeof header.magic);
       std::snprintf(header.unit, sizeof header.unit, "%s", unit.c_str());
-      header.integer_bits = T::kIntegerBits;
-      header.fraction_bits = T::kFractionBits;
+      // float32 is written as q0.0.
+      if constexpr (is_fixed_v<T>) {
+        header.integer_bits = T::kIntegerBits;
+        header.fraction_bits = T::kFractionBits;
+      }
       header.values = value_count(kind);
       std::fwrite(&header, sizeof header, 1, stdout);
       for (std::size_t s = 0; s < scenes.size(); ++s) {
@@ -299,7 +303,12 @@ int run(int argc, char** argv) {
   if (format == number_format_name<Fixed<integer, fraction>>()) return record.template operator()<Fixed<integer, fraction>>();
   PT_FOR_EACH_RECORDED_FORMAT(PT_RECORD_IN)
 #undef PT_RECORD_IN
-  throw std::runtime_error("format " + format + " is not among those recorded (PT_HARDWARE_FORMATS)");
+#if PT_RECORD_FLOAT32
+  // The renderer's float code path as the host runs it (FTZ and DAZ off): the recording only gives operands, and the
+  // testbench feeds the same recorded bits to the unit and to the model, which it runs with the unit's policy.
+  if (format == "float32") return record.template operator()<float>();
+#endif
+  throw std::runtime_error("format " + format + " is not among those recorded (PT_HARDWARE_FORMATS, PT_HARDWARE_FLOAT32_UNITS)");
 }
 
 }  // namespace

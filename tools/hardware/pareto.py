@@ -7,14 +7,17 @@
 #   tools/hardware/pareto.py --synthesis docs/hardware/synthesis.csv --numerics docs/numerics --svg docs/hardware/pareto.svg
 #
 # Quality per format is summarised over the scenes it rendered: the median PSNR and the median share of visibly
-# different pixels (docs/numerics.md). --float32 adds the float32 point from a CSV of per-operator costs (unit,
-# luts, ffs, dsp48 per operation kind, see docs/hardware.md) times each unit's operation counts.
+# different pixels (docs/numerics.md). The float32 point is the synthesised float32 units (tools/hardware/float32.py,
+# format "float32" in the synthesis CSV) with the quality of the renderer's float format, drawn as a red cross.
 
 import argparse
 import csv
 import statistics
 import sys
 from pathlib import Path
+
+# The synthesis CSV's name of a format -> the numerics CSVs' name of the same format.
+QUALITY_NAME = {"float32": "float"}
 
 UNITS = ["box", "triangle", "quad", "sphere"]
 
@@ -37,7 +40,7 @@ def read_costs(path: Path) -> dict:
     per_format: dict[str, dict] = {}
     with path.open() as f:
         for r in csv.DictReader(f):
-            if r.get("status") != "ok":
+            if not r.get("status", "").startswith("ok"):  # "ok, iCE40 without ice40_dsp": the 7-series figures stand
                 continue
             entry = per_format.setdefault(r["format"], {"units": set(), "luts": 0, "ffs": 0, "dsp": 0, "bits": int(r["bits"])})
             entry["units"].add(r["unit"])
@@ -47,27 +50,8 @@ def read_costs(path: Path) -> dict:
     return {k: v for k, v in per_format.items() if v["units"] >= set(UNITS)}
 
 
-def float32_cost(path: Path) -> dict:
-    """The four units' cost in float32: each operation's cost from a CSV of published figures (operation: add,
-    multiply, divide, sqrt, compare; luts, ffs, dsp48) times the operation counts of the kernels' floating-point
-    formulation (every operation rounded: the one units.py builds for 64-bit formats)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from units import build  # noqa: E402
-    per_op = {}
-    with path.open() as f:
-        for r in csv.DictReader(f):
-            per_op[r["operation"]] = (float(r["luts"]), float(r["ffs"]), float(r["dsp48"]))
-    total = [0.0, 0.0, 0.0]
-    for unit in UNITS:
-        c = build(unit, 32, 32).costs()
-        for op, n in (("add", c.add), ("multiply", c.mul), ("divide", c.div), ("sqrt", c.sqrt), ("compare", c.compare)):
-            for k in range(3):
-                total[k] += per_op[op][k] * n
-    return {"luts": total[0], "ffs": total[1], "dsp": total[2], "bits": 32}
-
-
-def svg_chart(points: list, float_point: dict | None, title: str) -> str:
-    """Two rows (median PSNR, median visible share) by three columns (LUTs, FFs, DSP48)."""
+def svg_chart(points: list, title: str) -> str:
+    """Two rows (median PSNR, median visible share) by three columns (LUTs, FFs, DSP48); float32 as a red cross."""
     cw, ch, ml, mt, gap = 300, 220, 60, 50, 70
     width, height = ml + 3 * (cw + gap), mt + 2 * (ch + gap) + 20
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" font-family="sans-serif" font-size="11">',
@@ -78,7 +62,7 @@ def svg_chart(points: list, float_point: dict | None, title: str) -> str:
     for ri, (qkey, qlabel, lower_better) in enumerate(rows):
         for ci, (ckey, clabel) in enumerate(metrics):
             x0, y0 = ml + ci * (cw + gap), mt + ri * (ch + gap)
-            xs = [p[ckey] for p in points] + ([float_point[ckey]] if float_point else [])
+            xs = [p[ckey] for p in points]
             ys = [p[qkey] for p in points]
             xmax = max(xs) * 1.1 if xs else 1
             ymax = (max(ys) if ys else 1) * 1.1 or 1
@@ -94,12 +78,13 @@ def svg_chart(points: list, float_point: dict | None, title: str) -> str:
             out.append(f'<text x="{x0 + cw / 2}" y="{y0 + ch + 30}" text-anchor="middle">{clabel}</text>')
             out.append(f'<text x="{x0 - 40}" y="{y0 + ch / 2}" transform="rotate(-90 {x0 - 40} {y0 + ch / 2})" text-anchor="middle">{qlabel}</text>')
             for p in points:
-                out.append(f'<circle cx="{sx(p[ckey]):.1f}" cy="{sy(p[qkey]):.1f}" r="4" fill="#1f5fbf"/>')
-                out.append(f'<text x="{sx(p[ckey]) + 6:.1f}" y="{sy(p[qkey]) - 4:.1f}">{p["format"]}</text>')
-            if float_point:
-                fx, fy = sx(float_point[ckey]), sy(float_point[qkey])
-                out.append(f'<path d="M{fx - 5:.1f} {fy - 5:.1f} l10 10 m0 -10 l-10 10" stroke="#c00" stroke-width="2"/>')
-                out.append(f'<text x="{fx + 6:.1f}" y="{fy + 12:.1f}" fill="#c00">float32 (estimate)</text>')
+                px, py = sx(p[ckey]), sy(p[qkey])
+                if p["format"] == "float32":
+                    out.append(f'<path d="M{px - 5:.1f} {py - 5:.1f} l10 10 m0 -10 l-10 10" stroke="#c00" stroke-width="2"/>')
+                    out.append(f'<text x="{px + 6:.1f}" y="{py + 12:.1f}" fill="#c00">float32</text>')
+                else:
+                    out.append(f'<circle cx="{px:.1f}" cy="{py:.1f}" r="4" fill="#1f5fbf"/>')
+                    out.append(f'<text x="{px + 6:.1f}" y="{py - 4:.1f}">{p["format"]}</text>')
     out.append("</svg>")
     return "\n".join(out) + "\n"
 
@@ -109,32 +94,22 @@ def main() -> int:
     parser.add_argument("--synthesis", required=True)
     parser.add_argument("--numerics", required=True, help="folder of `pathtracer numerics` CSVs")
     parser.add_argument("--svg", required=True)
-    parser.add_argument("--float32", help="CSV of float32 per-operation costs (operation,luts,ffs,dsp48,source)")
     args = parser.parse_args()
     quality = read_quality(Path(args.numerics))
     costs = read_costs(Path(args.synthesis))
     points = []
     for fmt, cost in sorted(costs.items(), key=lambda kv: kv[1]["luts"]):
-        q = quality.get(fmt)
+        q = quality.get(QUALITY_NAME.get(fmt, fmt))
         if not q:
             continue
         points.append({"format": fmt, "luts": cost["luts"], "ffs": cost["ffs"], "dsp": cost["dsp"], "bits": cost["bits"],
                        "psnr": statistics.median(min(p, 200.0) for _, p, _ in q), "visible": 100 * statistics.median(v for _, _, v in q),
                        "scenes": len(q)})
-    float_point = float32_cost(Path(args.float32)) if args.float32 else None
-    if float_point and quality.get("float"):
-        float_point["psnr"] = statistics.median(min(p, 200.0) for _, p, _ in quality["float"])
-        float_point["visible"] = 100 * statistics.median(v for _, _, v in quality["float"])
-    elif float_point:
-        float_point = None
-    Path(args.svg).write_text(svg_chart(points, float_point, "Intersection units: image quality against 7-series cost per number format"))
+    Path(args.svg).write_text(svg_chart(points, "Intersection units: image quality against 7-series cost per number format"))
     print("| format | bits | LUTs | FFs | DSP48 | median PSNR (dB) | median visible (%) | scenes |")
     print("|---|---|---|---|---|---|---|---|")
     for p in points:
         print(f"| {p['format']} | {p['bits']} | {p['luts']} | {p['ffs']} | {p['dsp']} | {p['psnr']:.1f} | {p['visible']:.2f} | {p['scenes']} |")
-    if float_point:
-        print(f"| float32 (estimate) | 32 | {float_point['luts']:.0f} | {float_point['ffs']:.0f} | {float_point['dsp']:.0f} | "
-              f"{float_point['psnr']:.1f} | {float_point['visible']:.2f} | |")
     return 0
 
 

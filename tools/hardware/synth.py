@@ -4,7 +4,7 @@
 # LUT4s, flip-flops, SB_MAC16, carries), and where a unit fits an iCE40 (HX8K without DSPs, UP5K with its eight
 # MAC16: a 16-bit box unit), its maximum clock after placement and routing by nextpnr-ice40.
 #
-#   tools/hardware/synth.py --output docs/hardware/synthesis.csv [--units box,triangle] [--formats 16.16,24.8]
+#   tools/hardware/synth.py --output docs/hardware/synthesis.csv [--units box,triangle] [--formats 16.16,24.8,float32]
 #
 # Yosys runs one at a time (single-threaded); a unit and format that does not finish within --timeout seconds is
 # written with status "timeout". Rows already in the output file are kept and skipped (--redo reruns them), so a long
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from units import UNITS, build, parse_format  # noqa: E402
+from units import UNITS, build, format_label, parse_format  # noqa: E402
 
 FIELDS = ["unit", "format", "bits", "latency", "adds", "multiplies", "divides", "square_roots", "compares",
           "exact_multiplies", "exact_adds",
@@ -35,13 +35,30 @@ ICE40_DEVICES = [  # (nextpnr option, LUT4s, MAC16s, package), the first that fi
 ]
 
 
+# synth_ice40 -dsp with its `coarse` step written out, less the ice40_dsp pass, which packs the registers and adders
+# around a multiplier into its SB_MAC16: Yosys 0.23 crashes in that pass on some units (signal 11 on the Q8.8 quad and
+# sphere). The multipliers still map to SB_MAC16; the registers and adders that pass would absorb stay in the fabric,
+# so the LUT and flip-flop counts are somewhat pessimistic.
+ICE40_UNPACKED = "; ".join([
+    "synth_ice40 -dsp -top {top} -run begin:coarse",
+    "opt_expr", "opt_clean", "check", "opt -nodffe -nosdff", "fsm", "opt", "wreduce", "peepopt", "opt_clean", "share",
+    "techmap -map +/cmp2lut.v -D LUT_WIDTH=4", "opt_expr", "opt_clean", "memory_dff", "wreduce t:$mul",
+    "techmap -map +/mul2dsp.v -map +/ice40/dsp_map.v -D DSP_A_MAXWIDTH=16 -D DSP_B_MAXWIDTH=16 -D DSP_A_MINWIDTH=2 "
+    "-D DSP_B_MINWIDTH=2 -D DSP_Y_MINWIDTH=11 -D DSP_NAME=$__MUL16X16",
+    "select a:mul2dsp", "setattr -unset mul2dsp", "opt_expr -fine", "wreduce", "select -clear",
+    "chtype -set $mul t:$__soft_mul", "alumacc", "opt", "memory -nomap", "opt_clean",
+    "synth_ice40 -dsp -top {top} -run map_ram:"])
+
+
 def yosys_stat(verilog: Path, top: str, script: str, timeout: float, json_out: Path | None = None) -> dict:
     """Cell counts of the whole design (submodules counted as often as they are instantiated) after a synthesis
-    script. A result kept in the work folder from the same Verilog is reused."""
+    script (given -top, or with {top} where it goes). A result kept in the work folder from the same Verilog is
+    reused."""
     stat = json_out.with_suffix(".stat.json") if json_out else verilog.with_suffix(f".{script.split()[0]}.stat.json")
     if not (stat.exists() and stat.stat().st_mtime > verilog.stat().st_mtime):
         write = f"write_json {json_out}; " if json_out else ""
-        command = f"read_verilog {verilog}; {script} -top {top}; {write}tee -q -o {stat} stat -json"
+        script = script.format(top=top) if "{top}" in script else f"{script} -top {top}"
+        command = f"read_verilog {verilog}; {script}; {write}tee -q -o {stat} stat -json"
         subprocess.run(["yosys", "-q", "-p", command], check=True, timeout=timeout, stdout=subprocess.DEVNULL)
     data = json.loads(stat.read_text())
     if "design" in data:
@@ -102,7 +119,7 @@ def synthesise(name: str, fmt: str, work: Path, timeout: float, pnr: bool, ice40
     integer, fraction = parse_format(fmt)
     u = build(name, integer, fraction)
     c = u.costs()
-    row = {"unit": name, "format": f"q{integer}.{fraction}", "bits": u.W, "latency": u.latency(), "adds": c.add, "multiplies": c.mul,
+    row = {"unit": name, "format": format_label(u), "bits": u.W, "latency": u.latency(), "adds": c.add, "multiplies": c.mul,
            "divides": c.div, "square_roots": c.sqrt, "compares": c.compare, "exact_multiplies": c.exact_mul,
            "exact_adds": c.exact_add, "status": "ok"}
     verilog = work / f"{u.module_name}.v"
@@ -119,7 +136,13 @@ def synthesise(name: str, fmt: str, work: Path, timeout: float, pnr: bool, ice40
             row["ice40_device"] = f"none (over {ice40_dsp_limit} DSP48)"
             return row
         start = time.monotonic()
-        cells = yosys_stat(verilog, u.module_name, "synth_ice40 -dsp", timeout, work / f"{u.module_name}_ice40.json")
+        try:
+            cells = yosys_stat(verilog, u.module_name, "synth_ice40 -dsp", timeout, work / f"{u.module_name}_ice40.json")
+        except subprocess.CalledProcessError as e:
+            if e.returncode != -11:
+                raise
+            cells = yosys_stat(verilog, u.module_name, ICE40_UNPACKED, timeout, work / f"{u.module_name}_ice40_unpacked.json")
+            row["status"] = "ok, iCE40 without ice40_dsp"
         row.update(ice40_luts=count(cells, r"SB_LUT4"), ice40_ffs=count(cells, r"SB_DFF.*"), ice40_mac16=count(cells, r"SB_MAC16"),
                    ice40_carries=count(cells, r"SB_CARRY"), ice40_seconds=round(time.monotonic() - start, 1))
     except subprocess.TimeoutExpired:
@@ -157,7 +180,7 @@ def print_table(path: Path) -> None:
     print("| unit | format | clocks | 7-series LUTs (+ SRL) | FFs | DSP48E1 | CARRY4 | iCE40 LUT4 | FFs | SB_MAC16 | iCE40 fit, max clock |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        if r["status"] != "ok":
+        if not r["status"].startswith("ok"):
             luts = f"{r['xc7_luts']} (+{r['xc7_srls']})" if r["xc7_luts"] else "-"
             print(f"| {r['unit']} | {r['format']} | {r['latency']} | {luts} | {r['xc7_ffs'] or '-'} | {r['xc7_dsp48'] or '-'} | "
                   f"{r['xc7_carry4'] or '-'} | iCE40: {r['status']} | | | |")
@@ -169,6 +192,8 @@ def print_table(path: Path) -> None:
             fit = "not synthesised (far too large)"
         elif fit == "none":
             fit = "does not fit"
+        if r["status"] != "ok":  # "ok, iCE40 without ice40_dsp"
+            fit += " (iCE40 without the ice40_dsp pass: registers and adders not packed into the MAC16)"
         print(f"| {r['unit']} | {r['format']} | {r['latency']} | {r['xc7_luts']} (+{r['xc7_srls']}) | {r['xc7_ffs']} | {r['xc7_dsp48']} | {r['xc7_carry4']} | "
               f"{r['ice40_luts'] or '-'} | {r['ice40_ffs'] or '-'} | {r['ice40_mac16'] or '-'} | {fit} |")
 
@@ -177,7 +202,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description="Synthesise the intersection units and write their cost as CSV")
     parser.add_argument("--output", required=True)
     parser.add_argument("--units", default=",".join(["box", "triangle", "quad", "sphere"]))
-    parser.add_argument("--formats", default="8.8,10.10,12.12,16.16,20.12,24.8,32.32")
+    parser.add_argument("--formats", default="8.8,10.10,12.12,16.16,20.12,24.8,32.32,float32")
     parser.add_argument("--timeout", type=float, default=1800, help="seconds per Yosys or nextpnr run")
     parser.add_argument("--no-place", action="store_true", help="skip nextpnr")
     parser.add_argument("--ice40-dsp-limit", type=int, default=40,
@@ -199,9 +224,8 @@ def main() -> int:
     work.mkdir(parents=True, exist_ok=True)
     for fmt in args.formats.split(","):
         for name in args.units.split(","):
-            integer, fraction = parse_format(fmt)
-            key = (name, f"q{integer}.{fraction}")
-            if key in rows and rows[key].get("status") == "ok":
+            key = (name, "float32" if fmt == "float32" else "q{}.{}".format(*parse_format(fmt)))
+            if key in rows and rows[key].get("status", "").startswith("ok"):
                 continue
             if name not in UNITS:
                 raise SystemExit(f"unknown unit {name}")

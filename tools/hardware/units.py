@@ -4,6 +4,7 @@
 # writes one unit in one format as Verilog (and the port list the Verilator testbench binds to).
 #
 #   units.py --unit triangle --format 16.16 --verilog triangle_q16_16.v [--ports triangle_q16_16_ports.hpp]
+#   units.py --unit box --format float32 --verilog box_float32.v     the same unit on IEEE-754 binary32 (float32.py)
 #   units.py --list                    the unit names
 #   units.py --costs --format 16.16    operation counts and pipeline depth per unit, as CSV
 #
@@ -17,6 +18,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from dataflow import Unit  # noqa: E402
+from float32 import FloatUnit  # noqa: E402
 
 
 def vec_input(u: Unit, name: str):
@@ -28,14 +30,21 @@ def box_unit(u: Unit) -> None:
     plane met first and the one met last, (bound - origin) * (1 / d) rounded (the traits clamp out-of-range
     distances, as the product's saturation does), then entry = max(max(tx0, ty0), max(tz0, t_min)), exit = min(...),
     hit where entry <= exit. Inputs: the BoxRay's reciprocal direction and origin term (the origin, for fixed point),
-    the node's bounds as the BoxRay's plane offsets select them, t_min and t_max."""
+    the node's bounds as the BoxRay's plane offsets select them, t_min and t_max.
+    In float (ScalarTraits<float>::slab_distance) the distance is bound * (1 / d) - origin * (1 / d), the origin term
+    being the product: a multiply, then a subtraction, each rounded (host code is compiled without contraction into
+    a fused multiply-add)."""
     inv = vec_input(u, "inv_direction")
     origin = vec_input(u, "origin_term")
     near_bound = vec_input(u, "near_bound")
     far_bound = vec_input(u, "far_bound")
     t_min, t_max = u.input("t_min"), u.input("t_max")
-    t0 = [u.mul(u.sub(near_bound[k], origin[k]), inv[k]) for k in range(3)]
-    t1 = [u.mul(u.sub(far_bound[k], origin[k]), inv[k]) for k in range(3)]
+    if u.is_float:
+        t0 = [u.sub(u.mul(near_bound[k], inv[k]), origin[k]) for k in range(3)]
+        t1 = [u.sub(u.mul(far_bound[k], inv[k]), origin[k]) for k in range(3)]
+    else:
+        t0 = [u.mul(u.sub(near_bound[k], origin[k]), inv[k]) for k in range(3)]
+        t1 = [u.mul(u.sub(far_bound[k], origin[k]), inv[k]) for k in range(3)]
     near = u.max(u.max(t0[0], t0[1]), u.max(t0[2], t_min))
     far = u.min(u.min(t1[0], t1[1]), u.min(t1[2], t_max))
     u.output("hit", u.le(near, far))
@@ -44,8 +53,9 @@ def box_unit(u: Unit) -> None:
 
 def exact_products(u: Unit) -> bool:
     """Whether the kernel keeps products exact in this format: ScalarTraits<Fixed>::kExactProducts, storage of at most
-    32 bits."""
-    return u.W <= 32
+    32 bits. Float rounds every product (ScalarTraits<float>::kExactProducts is false): the other branch of each
+    kernel, which the units below follow for float32 as they do for 64-bit fixed point."""
+    return not u.is_float and u.W <= 32
 
 
 def triangle_unit(u: Unit) -> None:
@@ -171,7 +181,8 @@ UNITS = {"box": box_unit, "triangle": triangle_unit, "quad": quad_unit, "sphere"
 
 
 def build(name: str, integer_bits: int, fraction_bits: int, **options) -> Unit:
-    u = Unit(name, integer_bits, fraction_bits, **options)
+    """The unit in Q(integer_bits).(fraction_bits), or in float32 where both are 0 (parse_format("float32"))."""
+    u = FloatUnit(name, **options) if integer_bits == 0 and fraction_bits == 0 else Unit(name, integer_bits, fraction_bits, **options)
     UNITS[name](u)
     return u
 
@@ -208,7 +219,15 @@ def ports_header(u: Unit, model_class: str = "") -> str:
     return "\n".join(lines)
 
 
+def format_label(u: Unit) -> str:
+    """The format as synthesis.csv and the tests name it: q16.16, float32."""
+    return "float32" if u.is_float else f"q{u.I}.{u.F}"
+
+
 def parse_format(text: str):
+    """(integer bits, fraction bits) of "16.16" or "q16.16"; (0, 0) for "float32"."""
+    if text == "float32":
+        return 0, 0
     integer, fraction = text.lstrip("q").split(".")
     return int(integer), int(fraction)
 
@@ -216,7 +235,7 @@ def parse_format(text: str):
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--unit", choices=sorted(UNITS))
-    parser.add_argument("--format", help="INTEGER.FRACTION bits, e.g. 16.16 (the sign bit counts as an integer bit)")
+    parser.add_argument("--format", help="INTEGER.FRACTION bits, e.g. 16.16 (the sign bit counts as an integer bit), or float32")
     parser.add_argument("--verilog", help="write the unit's Verilog here")
     parser.add_argument("--ports", help="write the C++ port binding for the Verilator testbench here")
     parser.add_argument("--model-class", default="", help="the Verilated model's class name (Verilator's --prefix)")
@@ -236,7 +255,7 @@ def main() -> int:
         for name in sorted(UNITS):
             u = build(name, integer_bits, fraction_bits, **options)
             c = u.costs()
-            print(f"{name},q{integer_bits}.{fraction_bits},{c.add},{c.mul},{c.div},{c.sqrt},{c.compare},{c.exact_mul},{c.exact_add},{u.latency()}")
+            print(f"{name},{format_label(u)},{c.add},{c.mul},{c.div},{c.sqrt},{c.compare},{c.exact_mul},{c.exact_add},{u.latency()}")
         return 0
     u = build(args.unit, integer_bits, fraction_bits, **options)
     if args.verilog:
