@@ -66,8 +66,8 @@ case "$case" in
     same one.pfm resumed.pfm "stopped, saved and resumed across 2 ranks"
     ;;
   mpi-interrupt)
-    # mpirun stopped (Ctrl-C or SIGTERM: it sends SIGTERM to every rank): rank 0 stops after the pass under way, saves the
-    # checkpoint and writes the image so far; two ranks resume it to the image of one uninterrupted process.
+    # mpirun stopped (Ctrl-C or SIGTERM: it sends SIGTERM to every rank): rank 0 gives up the pass under way, saves the
+    # checkpoint and writes the image of the passes before; two ranks resume it to the image of one uninterrupted process.
     spp=(--width 96 --height 74 --spp 3000 --threads 1)
     "$pathtracer" render "$scene" "${spp[@]}" -q -o one.pfm
     "$mpiexec" -np 2 --oversubscribe "$pathtracer" render "$scene" "${spp[@]}" --checkpoint film.ckpt --checkpoint-interval 0.1 \

@@ -8,7 +8,9 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <fmt/format.h>
@@ -60,8 +62,9 @@ void wait_for(MPI_Request& request) {
   }
 }
 
-// The next message from `source` (MPI_ANY_SOURCE: from anyone) with any tag, not yet received.
-MPI_Status probe(int source) {
+// The next message from `source` (MPI_ANY_SOURCE: from anyone) with any tag, not yet received; none where `stop`
+// (if given) turns true first.
+std::optional<MPI_Status> probe_unless(int source, const std::function<bool()>& stop) {
   for (;;) {
     int found = 0;
     MPI_Status status;
@@ -70,9 +73,12 @@ MPI_Status probe(int source) {
       MPI_Iprobe(source, MPI_ANY_TAG, MPI_COMM_WORLD, &found, &status);
     }
     if (found) return status;
+    if (stop && stop()) return std::nullopt;
     std::this_thread::sleep_for(kPoll);
   }
 }
+
+MPI_Status probe(int source) { return *probe_unless(source, {}); }
 
 // Byte arrays in pieces of at most 1 GiB, since MPI counts are ints; pieces of one tag arrive in order. `post` is
 // MPI_Isend or MPI_Irecv, whose arguments are the same but for the constness of the buffer.
@@ -123,25 +129,54 @@ static_assert(sizeof(BandWork) <= sizeof(FilmPixel));
 class RankWorker final : public BandWorker {
  public:
   RankWorker(int rank, std::string where, std::string name) : rank_(rank), where_(std::move(where)), name_(std::move(name)) {}
+  // A band left on a stop is still on its way back; the rank takes the stop message only once it is received.
+  ~RankWorker() override { receive_band_left(); }
   std::string name() const override { return name_; }
-  void render_band(const BandWork& work, std::span<FilmPixel> band) override {
-    message_.resize(1 + band.size());
+  bool leaves_bands() const override { return true; }
+  bool render_band(const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into, const std::function<bool()>& stop) override {
+    receive_band_left();
+    message_.resize(1 + from.size());
     std::memcpy(static_cast<void*>(message_.data()), &work, sizeof(work));
-    std::copy(band.begin(), band.end(), message_.begin() + 1);
+    std::copy(from.begin(), from.end(), message_.begin() + 1);
     send_bytes(message_.data(), message_.size() * sizeof(FilmPixel), rank_, kWork);
     // Sleep through most of the time the band should take before polling: this thread shares a core with the
     // renderer of this rank, and thousands of wake-ups a second would slow it. (Where the rows were last rendered
-    // by a slower worker, the sleep runs long; ranks of one kind of device are the case this is for.)
-    std::this_thread::sleep_for(std::chrono::duration<double>(0.8 * work.expected_seconds));
-    const MPI_Status reply = probe(rank_);
-    if (reply.MPI_TAG == kFailed) throw RemoteError(fmt::format("{}: {}", where_, receive_text(reply)));
-    receive_bytes(band.data(), band.size_bytes(), rank_, kBandDone);
+    // by a slower worker, the sleep runs long; ranks of one kind of device are the case this is for.) The sleep is
+    // cut into slices that look for a stop.
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point wake = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(0.8 * work.expected_seconds));
+    while (!stop() && Clock::now() < wake) std::this_thread::sleep_until(std::min(wake, Clock::now() + kStopLook));
+    const std::optional<MPI_Status> reply = probe_unless(rank_, stop);
+    if (!reply) {
+      left_bytes_ = into.size_bytes();
+      return false;
+    }
+    if (reply->MPI_TAG == kFailed) throw RemoteError(fmt::format("{}: {}", where_, receive_text(*reply)));
+    receive_bytes(into.data(), into.size_bytes(), rank_, kBandDone);
+    return true;
   }
 
  private:
+  // How often a sleep through a band looks for a stop.
+  static constexpr auto kStopLook = std::chrono::milliseconds(10);
+
+  // Receives the reply to a band left on a stop, rendered or failed, and drops it.
+  void receive_band_left() {
+    if (left_bytes_ == 0) return;
+    const MPI_Status reply = probe(rank_);
+    if (reply.MPI_TAG == kFailed) {
+      receive_text(reply);
+    } else {
+      message_.resize(left_bytes_ / sizeof(FilmPixel));
+      receive_bytes(message_.data(), left_bytes_, rank_, kBandDone);
+    }
+    left_bytes_ = 0;
+  }
+
   int rank_;
   std::string where_, name_;
   std::vector<FilmPixel> message_;
+  std::size_t left_bytes_ = 0;  // the size of a band left on a stop and not yet received (0: none)
 };
 
 }  // namespace

@@ -114,8 +114,9 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   return settings;
 }
 
-// SIGINT or SIGTERM: the first asks the render to stop after the pass under way and write what it has; a second
-// ends the program at once, removing the temporaries of files being written. The status is 128 + the signal.
+// SIGINT or SIGTERM: the first asks the render to stop after the pass under way (or to give it up, under MPI) and
+// write what it has; a second ends the program at once, removing the temporaries of files being written. The
+// status is 128 + the signal.
 std::atomic<int> interrupt_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free, "the signal handler needs a lock-free flag");
 

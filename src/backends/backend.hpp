@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -31,6 +32,19 @@ class RenderBackend {
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film. Samples must be
   // rendered in increasing order across calls; the result does not depend on how they are split into calls.
   virtual void render(u32 first_sample, u32 sample_count) = 0;
+
+  // render(), unless `stop` turns true while it runs: a backend that can give up a pass part-way (one whose bands
+  // are rendered by other processes) then returns false with its film as it was before the call. Others render
+  // the whole pass and return true.
+  virtual bool render_unless(u32 first_sample, u32 sample_count, const std::function<bool()>& stop) {
+    (void)stop;
+    render(first_sample, sample_count);
+    return true;
+  }
+
+  // Seconds a render pass should take (film/film.cpp): between passes the render reports progress, saves its film
+  // and notices a stop, but where every pass costs a transfer of the film, fewer, longer passes are faster.
+  virtual double pass_seconds() const { return 0.5; }
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel of rows [first_row, first_row +
   // row_count) to `band`, those rows of a film held by the caller (row-major, the band's first row first): the

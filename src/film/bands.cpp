@@ -5,9 +5,9 @@
 #include <atomic>
 #include <chrono>
 #include <exception>
+#include <functional>
 #include <mutex>
 #include <thread>
-#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -20,11 +20,15 @@ u32 min_band_rows(u32 height, std::size_t workers) {
   return static_cast<u32>(std::max<u64>(1, height / (32 * static_cast<u64>(workers))));
 }
 
-void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<FilmPixel> film, u32 min_rows,
-                  std::span<u64> shares, std::span<double> row_costs) {
+bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<const FilmPixel> from,
+                  std::span<FilmPixel> into, u32 min_rows, std::span<u64> shares, std::span<double> row_costs, const PassStop& stop) {
   if (workers.empty()) throw BackendError("no device to render on");
-  if (film.size() != static_cast<std::size_t>(width) * work.row_count) throw BackendError("a film of the wrong size for its bands");
-  if (work.row_count == 0 || work.sample_count == 0) return;
+  const std::size_t pixels = static_cast<std::size_t>(width) * work.row_count;
+  if (from.size() != pixels || into.size() != pixels) throw BackendError("a film of the wrong size for its bands");
+  if (work.row_count == 0 || work.sample_count == 0) {
+    if (from.data() != into.data()) std::copy(from.begin(), from.end(), into.begin());
+    return true;
+  }
   min_rows = std::clamp(min_rows, 1u, work.row_count);
   // The rows' costs as the last pass measured them, summed from the first row of `work` (cost[i]: rows before i);
   // none where a row has not been measured yet, and the bands are cut by rows instead.
@@ -41,8 +45,8 @@ void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
   std::mutex cursor_mutex;
   u32 cursor = 0;  // rows of `work` handed out so far
   // The next band's first row (within `work`) and rows; no rows once all are out. Half of an even share of what is
-  // left: of its cost where that is known, else of its rows.
-  const auto take = [&]() -> std::pair<u32, u32> {
+  // left: of its cost where that is known, else of its rows; `bounded`: no longer than the stop allows.
+  const auto take = [&](bool bounded) -> std::pair<u32, u32> {
     const std::lock_guard lock(cursor_mutex);
     const u32 left = work.row_count - cursor;
     u64 share = (static_cast<u64>(left) + halves - 1) / halves;
@@ -51,23 +55,36 @@ void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
       const auto end = std::lower_bound(cost.begin() + cursor + 1, cost.end(), target);
       share = static_cast<u64>(std::min<std::ptrdiff_t>(end - cost.begin(), work.row_count) - cursor);
     }
-    const u32 rows = static_cast<u32>(std::min<u64>(left, std::max<u64>(min_rows, share)));
+    u32 rows = static_cast<u32>(std::min<u64>(left, std::max<u64>(min_rows, share)));
+    if (bounded && stop.longest_band_seconds > 0 && !cost.empty()) {
+      // The rows from the cursor whose cost together is within the bound (one at least).
+      const double most = cost[cursor] + stop.longest_band_seconds / work.sample_count;
+      const auto beyond = std::upper_bound(cost.begin() + cursor + 1, cost.end(), most);
+      rows = std::min(rows, std::max<u32>(1, static_cast<u32>(beyond - cost.begin() - 1) - cursor));
+    }
     const u32 first = cursor;
     cursor += rows;
     return {first, rows};
   };
-  std::atomic<bool> failed{false};
+  const std::function<bool()> stopping = stop.requested ? stop.requested : [] { return false; };
+  std::atomic<bool> failed{false}, given_up{false};
   std::exception_ptr first_error;
   std::mutex error_mutex;
   const auto drive = [&](std::size_t w) {
     try {
-      for (auto [first, rows] = take(); rows > 0 && !failed.load(); std::tie(first, rows) = take()) {
+      while (!failed.load() && !stopping()) {
+        const auto [first, rows] = take(!workers[w]->leaves_bands());
+        if (rows == 0) break;
         BandWork part = work;
         part.first_row = work.first_row + first;
         part.row_count = rows;
         part.expected_seconds = cost.empty() ? 0.0 : (cost[first + rows] - cost[first]) * part.sample_count;
         const auto start = std::chrono::steady_clock::now();
-        workers[w]->render_band(part, film.subspan(static_cast<std::size_t>(first) * width, static_cast<std::size_t>(rows) * width));
+        const std::size_t offset = static_cast<std::size_t>(first) * width, size = static_cast<std::size_t>(rows) * width;
+        if (!workers[w]->render_band(part, from.subspan(offset, size), into.subspan(offset, size), stopping)) {
+          given_up = true;
+          break;
+        }
         shares[w] += static_cast<u64>(rows) * width * part.sample_count;
         // Each row of the band is taken to cost the band's mean (a worker writes only its own band's rows).
         if (!row_costs.empty()) {
@@ -91,6 +108,7 @@ void render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
     for (std::thread& t : threads) t.join();
   }
   if (first_error) std::rethrow_exception(first_error);
+  return cursor == work.row_count && !given_up.load();
 }
 
 }  // namespace pt

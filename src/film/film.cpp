@@ -80,6 +80,7 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
   const u32 first = done;
   u32 pass = 1;
   bool stopped = false;
+  const std::function<bool()> stop = control.stop_requested ? control.stop_requested : [] { return false; };
   std::vector<FilmPixel> saved;
   const auto save = [&] {
     if (!control.checkpoint) return;
@@ -88,21 +89,26 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
   };
   while (done < total) {
     // A time limit stops a render only after it has made a pass, so that even a tiny limit leaves an image.
-    if ((control.stop_requested && control.stop_requested()) ||
+    if (stop() ||
         (control.time_limit_seconds > 0 && done > first && seconds_since(start) >= control.time_limit_seconds)) {
       stopped = true;
       break;
     }
     pass = std::min(pass, total - done);
-    backend.render(done, pass);
+    // A pass given up on a stop leaves the film as it was before it: the render ends with the samples done.
+    if (!backend.render_unless(done, pass, stop)) {
+      stopped = true;
+      break;
+    }
     done += pass;
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = elapsed > 0 ? (done - first) * pixels / elapsed : 0;
     if (progress) progress(Progress{done, total, elapsed, rate});
     if (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds) save();
-    // Passes of about half a second: often enough to report and to stop (mpirun kills ranks 1 s after passing on
-    // a SIGTERM, so rank 0 must end its pass, save and write within it), rarely enough to cost nothing.
-    pass = next_pass_samples(elapsed, done - first, pass, 0.5,
+    // Passes of about half a second by default: often enough to report and to stop (mpirun kills ranks 1 s after
+    // passing on a SIGTERM, so rank 0 must end its pass, save and write within it), rarely enough to cost nothing.
+    // A backend that gives up a pass on a stop may ask for longer ones.
+    pass = next_pass_samples(elapsed, done - first, pass, backend.pass_seconds(),
                              control.time_limit_seconds > 0 ? std::max(control.time_limit_seconds - elapsed, 1e-9) : 0.0);
   }
   if (done > first) save();  // stopped or finished, either can be resumed (a finished render to more samples)

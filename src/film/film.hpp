@@ -36,9 +36,10 @@ using ProgressCallback = std::function<void(const Progress&)>;
 u32 next_pass_samples(double elapsed, u32 samples, u32 last, double pass_seconds, double time_left = 0);
 
 // How a render may end before all its samples, save its film on the way, and start from a saved one. Everything
-// is checked between passes (about half a second apart), so a stop takes effect within about a second.
+// is checked between passes (half a second apart, or a few seconds where a pass sends the film to other processes),
+// and a stop also during a pass where the backend can give that pass up: a stop takes effect within about a second.
 struct RenderControl {
-  std::function<bool()> stop_requested;      // an interrupt: stop after the pass under way
+  std::function<bool()> stop_requested;      // an interrupt: stop after the pass under way, or give it up
   double time_limit_seconds = 0;             // > 0: stop once the passes have taken this long
   double checkpoint_interval_seconds = 0;    // > 0 (with `checkpoint`): save the film about this often
   // Called with the film and its samples per pixel every interval and when the render ends, early or not.

@@ -2,6 +2,7 @@
 #include "film/multi_backend.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <future>
 
 #include <fmt/format.h>
@@ -16,8 +17,10 @@ class MultiBackend<T>::DeviceWorker final : public BandWorker {
  public:
   DeviceWorker(RenderBackend<T>& backend, std::string label) : backend_(backend), label_(std::move(label)) {}
   std::string name() const override { return label_.empty() ? backend_.name() : label_ + ": " + backend_.name(); }
-  void render_band(const BandWork& work, std::span<FilmPixel> band) override {
-    backend_.render_rows(work.first_row, work.row_count, work.first_sample, work.sample_count, band);
+  bool render_band(const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into, const std::function<bool()>&) override {
+    if (from.data() != into.data()) std::copy(from.begin(), from.end(), into.begin());
+    backend_.render_rows(work.first_row, work.row_count, work.first_sample, work.sample_count, into);
+    return true;
   }
 
  private:
@@ -35,6 +38,7 @@ MultiBackend<T>::MultiBackend(std::vector<std::unique_ptr<RenderBackend<T>>> dev
   for (auto& worker : workers_) worker_pointers_.push_back(worker.get());
   shares_.assign(workers_.size(), 0);
   alone_ = devices_.size() == 1 && workers_.size() == 1;
+  others_ = workers_.size() > devices_.size();
 }
 
 template <class T>
@@ -59,6 +63,7 @@ void MultiBackend<T>::upload(const FlatScene<T>& scene) {
   height_ = scene.params.height;
   if (alone_) film_.clear();
   else film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
+  if (others_) next_.assign(film_.size(), FilmPixel{});
   row_costs_.assign(height_, 0.0);
   std::fill(shares_.begin(), shares_.end(), 0);
 }
@@ -70,11 +75,33 @@ void MultiBackend<T>::render(u32 first_sample, u32 sample_count) {
   shares_[0] += static_cast<u64>(width_) * height_ * sample_count;
 }
 
+// With other processes a pass renders into a second film, which replaces the first only once every band is in: a
+// stop can then give the pass up at once, dropping what came in, rather than wait for bands elsewhere (mpirun kills
+// every rank a second after passing on a SIGTERM). Bands of this process's devices cannot be left, so they are
+// kept short.
+template <class T>
+bool MultiBackend<T>::render_unless(u32 first_sample, u32 sample_count, const std::function<bool()>& stop) {
+  if (!others_) return RenderBackend<T>::render_unless(first_sample, sample_count, stop);
+  const BandWork work{0, height_, first_sample, sample_count};
+  std::vector<u64> pass_shares(workers_.size(), 0);
+  if (!render_bands(worker_pointers_, width_, work, film_, next_, min_band_rows(height_, workers_.size()), pass_shares, row_costs_,
+                    PassStop{stop, kLongestBandSeconds}))
+    return false;
+  film_.swap(next_);
+  for (std::size_t i = 0; i < shares_.size(); ++i) shares_[i] += pass_shares[i];
+  return true;
+}
+
+template <class T>
+double MultiBackend<T>::pass_seconds() const {
+  return others_ ? kPassSecondsWithOthers : RenderBackend<T>::pass_seconds();
+}
+
 template <class T>
 void MultiBackend<T>::render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) {
   if (first_row + row_count > height_) throw BackendError("a band of rows outside the image");
   const BandWork work{first_row, row_count, first_sample, sample_count};
-  render_bands(worker_pointers_, width_, work, band, min_band_rows(row_count, workers_.size()), shares_, row_costs_);
+  render_bands(worker_pointers_, width_, work, band, band, min_band_rows(row_count, workers_.size()), shares_, row_costs_);
 }
 
 template <class T>

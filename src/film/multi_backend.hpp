@@ -2,6 +2,7 @@
 // whose passes are split into bands of rows handed out as each device becomes free (docs/distributed.md).
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -26,6 +27,8 @@ class MultiBackend final : public RenderBackend<T> {
   std::string name() const override;
   void upload(const FlatScene<T>& scene) override;
   void render(u32 first_sample, u32 sample_count) override;
+  bool render_unless(u32 first_sample, u32 sample_count, const std::function<bool()>& stop) override;
+  double pass_seconds() const override;
   void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) override;
   void read_film(std::vector<FilmPixel>& pixels) override;
   void write_film(std::span<const FilmPixel> pixels) override;
@@ -44,7 +47,15 @@ class MultiBackend final : public RenderBackend<T> {
   // One device and no one else: nothing to share out, so the film stays on the device and passes go to it whole
   // (no band copies: `--device all` on a machine of one GPU costs what `--device 0` does).
   bool alone_ = false;
+  // Passes where other processes take part: each sends the whole film out and back in bands, so a pass of half a
+  // second cost rank 1 of two on a 2-core machine 7.5 % of its time; passes of 2 s a quarter of that (BENCHMARKS.md).
+  static constexpr double kPassSecondsWithOthers = 2.0;
+  // The longest band when a pass may be given up: a stop waits for bands of this process's devices in flight, and
+  // rank 0 must still save and write its image before mpirun's kill a second after the signal.
+  static constexpr double kLongestBandSeconds = 0.25;
+  bool others_ = false;          // other processes take bands: passes may be given up (render_unless)
   std::vector<FilmPixel> film_;  // the whole image's sums, but when alone
+  std::vector<FilmPixel> next_;  // with others: the film of the pass under way, which replaces film_ once complete
   std::vector<double> row_costs_;  // seconds a sample of each row took when last rendered (render_bands)
   u32 width_ = 0, height_ = 0;
 };
