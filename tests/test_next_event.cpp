@@ -276,7 +276,7 @@ TEST(RectangleLight, DirectionsAreUniformOverItsSolidAngle) {
   for (const Vec3<double>& from : points) {
     SCOPED_TRACE(testing::Message() << "from " << from.x << " " << from.y << " " << from.z);
     SphericalRectangle<double> rectangle;
-    ASSERT_TRUE(spherical_rectangle(quad, from, rectangle));
+    ASSERT_TRUE(spherical_rectangle(rectangle_frame(quad), quad.corner, from, rectangle));
     const double solid_angle = quad_part_solid_angle(corner, u, v, from, 0, 1, 0, 1);
     EXPECT_NEAR(rectangle.solid_angle, solid_angle, 1e-12 * solid_angle + 1e-15);
     constexpr int kCells = 8;
@@ -308,8 +308,12 @@ TEST(RectangleLight, DirectionsAreUniformOverItsSolidAngle) {
     EXPECT_LT(chi2, 115);
   }
   SphericalRectangle<double> rectangle;
-  EXPECT_FALSE(spherical_rectangle(quad, Vec3<double>{0, 400, 0}, rectangle));  // 1e-5 sr: by area
-  EXPECT_FALSE(spherical_rectangle(std::get<Quad<double>>(flat.primitives[1].shape), Vec3<double>{3, 1, 0}, rectangle));  // not a rectangle
+  EXPECT_FALSE(spherical_rectangle(rectangle_frame(quad), quad.corner, Vec3<double>{0, 400, 0}, rectangle));  // 1e-5 sr: by area
+  const Quad<double>& parallelogram = std::get<Quad<double>>(flat.primitives[1].shape);
+  EXPECT_EQ(rectangle_frame(parallelogram).lu, 0.0);
+  EXPECT_EQ(flat.light_rectangles[flat.primitive_light[1]].lu, 0.0);
+  EXPECT_EQ(flat.light_rectangles[entry].lu, rectangle_frame(quad).lu);  // made by flattening, one per light
+  EXPECT_FALSE(spherical_rectangle(rectangle_frame(parallelogram), parallelogram.corner, Vec3<double>{3, 1, 0}, rectangle));  // not a rectangle
 }
 
 // ---- The integrators agree bitwise, with light sampling and without ----

@@ -35,6 +35,7 @@ struct FlatScene {
   std::vector<u32> perlin_permutations;
   // Lights for next-event estimation (kernel/scene_view.hpp, LightData), built by build_light_table.
   std::vector<LightEntry<T>> light_entries;
+  std::vector<RectangleFrame<T>> light_rectangles;  // one per entry
   std::vector<u32> primitive_light;
   std::vector<T> light_triangle_cdf;
   u32 background_light = kNoLight;
@@ -88,7 +89,8 @@ SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
                                                                       place(scene.environment_density, "copying the environment's distribution"),
                                                                       place(scene.environment_row_cdf, "copying the environment's distribution"),
                                                                       place(scene.environment_column_cdfs, "copying the environment's distribution")}),
-                      LightData<T>{place(scene.light_entries, "copying the lights"), place(scene.primitive_light, "copying the lights"),
+                      LightData<T>{place(scene.light_entries, "copying the lights"), place(scene.light_rectangles, "copying the lights"),
+                                   place(scene.primitive_light, "copying the lights"),
                                    place(scene.light_triangle_cdf, "copying the lights"), static_cast<u32>(scene.light_entries.size()),
                                    scene.background_light},
                       scene.params};

@@ -179,6 +179,13 @@ void build_light_table(FlatScene<T>& scene) {
     powers.push_back(power);
   }
   if (!scene.light_entries.empty()) fill_alias_table(scene.light_entries, powers);
+  // Each rectangular light's frame, made here once rather than for every shadow ray (kernel/lights.hpp).
+  scene.light_rectangles.assign(scene.light_entries.size(), RectangleFrame<T>{});
+  for (std::size_t i = 0; i < scene.light_entries.size(); ++i) {
+    const u32 p = scene.light_entries[i].primitive;
+    if (p == kNoLight) continue;
+    if (const auto* q = std::get_if<Quad<T>>(&scene.primitives[p].shape)) scene.light_rectangles[i] = rectangle_frame(*q);
+  }
 }
 
 #define PT_INSTANTIATE_LIGHT_TABLE(...) template void build_light_table<__VA_ARGS__>(FlatScene<__VA_ARGS__>&);

@@ -170,26 +170,40 @@ PT_HD inline T smallest_sampled_solid_angle() {
   return constant<T>(3e-4) + constant<T>(1024) * ScalarTraits<T>::rounding_unit();
 }
 
-// The spherical rectangle that quad q fills seen from `from`, where q is a rectangle and its solid angle lies
-// within the range sampled by it; false otherwise (light sampling then samples q by area). The same test decides in
-// sample_light and light_pdf, so the density is always that of the sampling used.
+// Quad q's frame (RectangleFrame), or one with lu = 0 where q is a parallelogram that is not a rectangle.
 template <class T>
-PT_HD inline bool spherical_rectangle(const Quad<T>& q, const Vec3<T>& from, SphericalRectangle<T>& r) {
+PT_HD inline RectangleFrame<T> rectangle_frame(const Quad<T>& q) {
+  RectangleFrame<T> f{};
   Vec3<T> eu, ev;
   quad_edges(q, eu, ev);
   const T lu = length(eu), lv = length(ev);
-  if (!(lu > T(0) && lv > T(0))) return false;
+  if (!(lu > T(0) && lv > T(0))) return f;
   // Floating point multiplies by the reciprocal (one division); fixed point divides, as 1 / length keeps few digits.
   if constexpr (std::is_floating_point_v<T>) {
-    r.x = eu * (T(1) / lu);
-    r.y = ev * (T(1) / lv);
+    f.x = eu * (T(1) / lu);
+    f.y = ev * (T(1) / lv);
   } else {
-    r.x = eu / lu;
-    r.y = ev / lv;
+    f.x = eu / lu;
+    f.y = ev / lv;
   }
-  if (!(abs(dot(r.x, r.y)) <= constant<T>(1e-6))) return false;  // a parallelogram that is not a rectangle
-  r.z = cross(r.x, r.y);
-  const Vec3<T> d = q.corner - from;
+  if (!(abs(dot(f.x, f.y)) <= constant<T>(1e-6))) return RectangleFrame<T>{};
+  f.z = cross(f.x, f.y);
+  f.lu = lu;
+  f.lv = lv;
+  return f;
+}
+
+// The spherical rectangle that a rectangle of frame `f` and corner `corner` (a quad's) fills seen from `from`, where
+// its solid angle lies within the range sampled by it; false otherwise (light sampling then samples the quad by
+// area). The same test decides in sample_light and light_pdf, so the density is always that of the sampling used.
+template <class T>
+PT_HD inline bool spherical_rectangle(const RectangleFrame<T>& f, const Vec3<T>& corner, const Vec3<T>& from, SphericalRectangle<T>& r) {
+  if (!(f.lu > T(0))) return false;  // no rectangle
+  const T lu = f.lu, lv = f.lv;
+  r.x = f.x;
+  r.y = f.y;
+  r.z = f.z;
+  const Vec3<T> d = corner - from;
   r.x0 = dot(d, r.x);
   r.y0 = dot(d, r.y);
   r.z0 = dot(d, r.z);
@@ -316,7 +330,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
     if (sphere(moving_sphere_center(*m, time), m->radius)) return true;
   } else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
     SphericalRectangle<T> rectangle;
-    if (spherical_rectangle(*q, from, rectangle)) {
+    if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) {
       sample_spherical_rectangle(rectangle, u1, u2, out.direction, out.distance);
       out.pdf = light.pmf / rectangle.solid_angle;
       return true;
@@ -388,7 +402,7 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) return sphere(moving_sphere_center(*m, ray.time), m->radius);
   if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
     SphericalRectangle<T> rectangle;
-    if (spherical_rectangle(*q, from, rectangle)) return light.pmf / rectangle.solid_angle;
+    if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) return light.pmf / rectangle.solid_angle;
     // |u x v| = u_extent (v_extent / normal.(du x dv)) (quad_area).
     if constexpr (ScalarTraits<T>::kExactProducts) return per_area2(q->u_extent, abs(q->v_extent / dot(q->normal, cross(q->du, q->dv))));
     else return per_area(quad_area(*q));

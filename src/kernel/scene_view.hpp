@@ -33,9 +33,19 @@ struct LightEntry {
   u32 first_cdf;  // kNoLight but for mesh instances
 };
 
+// A rectangular light's frame, the same from wherever the light is seen, so made once (build_light_table) rather
+// than for every shadow ray: unit vectors x and y along its edges, z = x cross y, and the edges' lengths; lu = 0
+// where the light is no rectangle (kernel/lights.hpp, rectangle_frame).
+template <class T>
+struct RectangleFrame {
+  Vec3<T> x, y, z;
+  T lu, lv;
+};
+
 template <class T>
 struct LightData {
   const LightEntry<T>* entries;
+  const RectangleFrame<T>* rectangles;  // per entry: the frame of a rectangular light (lu = 0 for other lights)
   const u32* primitive_light;  // per primitive: its entry, or kNoLight where it does not emit
   const T* triangle_cdf;       // per emitting mesh (and material it is given), triangle_count + 1 values from 0 to 1
   u32 count;
