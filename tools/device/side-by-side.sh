@@ -2,7 +2,8 @@
 # Two builds timed side by side on the GPU machine, alternating (old, new, new, old per round) so that drift of the
 # machine's speed falls on both: `bench --runs 3` medians of two GPU lines of BENCHMARKS.md (book-1, Cornell smoke), both integrators.
 # Usage: bash tools/device/side-by-side.sh OLD_BINARY NEW_BINARY [ROUNDS]   (from the repository root, after
-# tools/device/package.sh; the binaries load their libraries from out/device/lib)
+# tools/device/package.sh; the binaries load their libraries from out/device/lib). SCENES, where set, replaces the
+# two lines: "scene and bench arguments" separated by '|', e.g. SCENES="cornell-box --spp 1000|tiny --spp 64".
 set -uo pipefail
 old=$1 new=$2 rounds=${3:-2}
 export LD_LIBRARY_PATH="$PWD/out/device/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
@@ -12,7 +13,8 @@ median() {  # binary, scene, size and spp arguments...: prints the median second
   "$binary" bench "$@" --backend cuda --runs 3 2>/dev/null | grep -oE 'median of [0-9]+: [0-9.]+ s' | awk '{print $4}'
 }
 printf '%-16s %-10s %-6s %-10s %-10s %s\n' scene integrator round old_s new_s new/old
-for line in "book1-final --width 1200 --height 800 --spp 100" "cornell-smoke --width 1024 --height 1024 --spp 1000"; do
+IFS='|' read -r -a lines <<<"${SCENES:-book1-final --width 1200 --height 800 --spp 100|cornell-smoke --width 1024 --height 1024 --spp 1000}"
+for line in "${lines[@]}"; do
   set -- $line
   scene=$1
   shift
