@@ -95,6 +95,20 @@ PT_HD inline T transmittance(T optical_depth) {
   return optical_depth > T(0) ? exp(-optical_depth) : T(1);
 }
 
+// A shadow ray towards a point sampled on a quad light that met nothing up to that point has reached the light, even
+// where rounding took it just past an edge: at grazing angles a direction off by one step moves the ray's crossing of
+// the light's plane far along it, so in fixed point rays aimed near the edges missed the light and the walls next to
+// it drew a dark seam (docs/numerics.md). `hit` becomes the light's point nearest that crossing. False for other
+// lights (and a ray along the plane): they have no such miss to mend, or none measured.
+template <class T>
+PT_HD inline bool quad_light_reached(const SceneView<T>& scene, u32 primitive, const Ray<T>& ray, Hit<T>& hit) {
+  const auto* q = std::get_if<Quad<T>>(&scene.primitives[primitive].shape);
+  if (!q || !intersect_quad<T, true>(*q, ray, T(0), largest<T>(), hit)) return false;
+  hit.primitive = primitive;
+  hit.triangle = 0;
+  return true;
+}
+
 // What a shadow ray adds to its path's radiance: the light's emission where the ray meets the light it aimed at
 // before anything else, times the transmittance of the media it crosses (exact for constant media: exp(-density x
 // length inside)), weighted by MIS against scattering.
@@ -110,7 +124,11 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
     if (blocked || !(light_density > T(0))) return Color<T>{};
     return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
   }
-  if (!blocked || hit.primitive != light.primitive || hit.triangle != shadow.triangle) return Color<T>{};
+  if (!blocked) {
+    if (!quad_light_reached(scene, light.primitive, shadow.ray, hit)) return Color<T>{};
+  } else if (hit.primitive != light.primitive || hit.triangle != shadow.triangle) {
+    return Color<T>{};
+  }
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));

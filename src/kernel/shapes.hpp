@@ -303,7 +303,9 @@ PT_HD inline bool intersect_triangle(const Triangle<T>& tri, const Ray<T>& ray, 
 // planar = o + t d - corner rounded per operation; du.planar and dv.planar exact (2F fraction bits) and compared
 // with [0, extent] exactly; the coordinates a and b are those divided by the extents (truncated: a power of two,
 // a shift).
-template <class T>
+// kOntoQuad: where the ray meets the quad's plane outside the quad, its coordinates are clamped onto the quad's
+// edges instead of missing (quad_light_reached).
+template <class T, bool kOntoQuad = false>
 PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
   if constexpr (ScalarTraits<T>::kExactProducts) {
     using S = ScalarTraits<T>;
@@ -312,9 +314,13 @@ PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T
     const T t = S::exact_quotient(exact_dot(q.normal, q.corner - ray.origin), denominator);
     if (!(t > t_min && t < t_max)) return false;
     const Vec3<T> planar = ray.at(t) - q.corner;
-    const auto a = exact_dot(q.du, planar), b = exact_dot(q.dv, planar);
+    auto a = exact_dot(q.du, planar), b = exact_dot(q.dv, planar);
     const auto one = S::exact(T(1));
     const auto a_max = S::exact(q.u_extent) * one, b_max = S::exact(q.v_extent) * one;
+    if constexpr (kOntoQuad) {
+      a = a < 0 ? 0 : (a > a_max ? a_max : a);
+      b = b < 0 ? 0 : (b > b_max ? b_max : b);
+    }
     if (!(a >= 0 && a <= a_max && b >= 0 && b <= b_max)) return false;
     hit.t = t;
     hit.b1 = S::exact_quotient(a, a_max);
@@ -326,8 +332,12 @@ PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T
   const T t = dot(q.normal, q.corner - ray.origin) / denominator;
   if (!(t > t_min && t < t_max)) return false;
   const Vec3<T> planar = ray.at(t) - q.corner;
-  const T a = dot(q.du, planar);
-  const T b = dot(q.dv, planar);
+  T a = dot(q.du, planar);
+  T b = dot(q.dv, planar);
+  if constexpr (kOntoQuad) {
+    a = clamp(a, T(0), T(1));
+    b = clamp(b, T(0), T(1));
+  }
   if (!(a >= T(0) && a <= T(1) && b >= T(0) && b <= T(1))) return false;
   hit.t = t;
   hit.b1 = a;
