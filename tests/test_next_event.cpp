@@ -343,14 +343,7 @@ void expect_every_unblocked_light_sample_reaches_the_light() {
       LightSample<T> light;
       if (!sample_light(view, entry, from, T(0), BounceRandom{&random, 0}, light)) continue;
       ++sampled;
-      ShadowRay<T> shadow{};
-      shadow.ray = Ray<T>{from, light.direction, T(0)};
-      shadow.weight = Color<T>::splat(T(1));
-      shadow.scatter_pdf = T(1);
-      shadow.distance = light.distance + light.distance * constant<T>(1.0 / 1024);
-      shadow.light_pdf = light.pdf;
-      shadow.entry = light.entry;
-      shadow.triangle = light.triangle;
+      const ShadowRay<T> shadow = shadow_ray_to(light, Ray<T>{from, light.direction, T(0)}, Color<T>::splat(T(1)), T(1));
       const Color<T> c = shadow_contribution(view, shadow, random);
       if (!(static_cast<double>(c.x) > 0)) ++dark;
     }

@@ -66,6 +66,15 @@ PT_HD inline void path_escaped(const SceneView<T>& scene, PathState<T>& path) {
   ++path.bounce;
 }
 
+// The shadow ray that tells whether light sample `light` is seen along `ray` (from the scattering point towards it),
+// carrying `weight` (throughput times scattering) and the material's density `scatter_pdf` for that direction.
+template <class T>
+PT_HD inline ShadowRay<T> shadow_ray_to(const LightSample<T>& light, const Ray<T>& ray, const Color<T>& weight, T scatter_pdf) {
+  // A margin of 1/1024 keeps the light itself within reach of the rounded hit distance; only media there (a fog that
+  // also fills the light) count for a length they should not, at most that fraction of the way.
+  return ShadowRay<T>{ray, weight, scatter_pdf, light.distance + light.distance * constant<T>(1.0 / 1024), light.pdf, light.entry, light.triangle};
+}
+
 // Next-event estimation at a scattering point: a light picked, a direction towards it, and the shadow ray that will
 // tell whether it is seen (traced by the caller: shadow_contribution). Leaves shadow.entry at kNoLight where there is
 // nothing to trace.
@@ -76,15 +85,7 @@ PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathSta
   if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
   const ScatterValue<T> value = material_evaluate(material, at, -path.ray.direction, light.direction, scene.textures, scene.texture_data);
   if (!(value.pdf > T(0))) return;
-  shadow.ray = spawn_ray(at, light.direction, path.ray.time);
-  shadow.weight = path.throughput * value.value;
-  shadow.scatter_pdf = value.pdf;
-  // A margin of 1/1024 keeps the light itself within reach of the rounded hit distance; only media there (a fog that
-  // also fills the light) count for a length they should not, at most that fraction of the way.
-  shadow.distance = light.distance + light.distance * constant<T>(1.0 / 1024);
-  shadow.light_pdf = light.pdf;
-  shadow.entry = light.entry;
-  shadow.triangle = light.triangle;
+  shadow = shadow_ray_to(light, spawn_ray(at, light.direction, path.ray.time), path.throughput * value.value, value.pdf);
   ++path.shadow_rays;
 }
 
