@@ -11,8 +11,8 @@
 #include <memory>
 
 #include "flat/flat_scene.hpp"
-#include "meshes/mesh.hpp"
-#include "scene/scene_loader.hpp"
+#include "scene/mesh.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "flat/flat_scene.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace {
 

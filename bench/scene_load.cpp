@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <exception>
 
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 int main(int argc, char** argv) {
   if (argc < 2) {

@@ -14,7 +14,7 @@
 #include <filesystem>
 #include <string>
 
-#include "meshes/mesh.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt::fuzz {
 
@@ -47,7 +47,7 @@ inline void write_input_file(const std::filesystem::path& path, const void* data
   ::close(fd);
 }
 
-// What every MeshFile read must hold (meshes/mesh.hpp); a broken promise stops the fuzzer like a crash.
+// What every MeshFile read must hold (scene/mesh.hpp); a broken promise stops the fuzzer like a crash.
 inline void check_mesh_file(const MeshFile& file) {
   if (file.materials.empty()) __builtin_trap();
   std::uint64_t triangles = 0, vertices = 0;

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "test_support.hpp"
 
 namespace pt::test {

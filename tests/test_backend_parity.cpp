@@ -6,9 +6,9 @@
 #include <cmath>
 #include <string>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "film/film.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 #include "test_support.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"

@@ -8,8 +8,8 @@
 
 #include "flat/bvh_builder.hpp"
 #include "kernel/fixed_point.hpp"
-#include "meshes/mesh.hpp"
-#include "scene/scene_loader.hpp"
+#include "scene/mesh.hpp"
+#include "loading/scene_loader.hpp"
 #include "test_support.hpp"
 
 namespace pt {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "backends/cpu/cpu_device.hpp"
-#include "integrators/device_backend.hpp"
+#include "backends/device_backend.hpp"
 #include "test_support.hpp"
 
 namespace pt {

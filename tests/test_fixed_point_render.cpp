@@ -5,10 +5,10 @@
 
 #include <gtest/gtest.h>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "film/film.hpp"
 #include "base/number_formats.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace pt {
 namespace {

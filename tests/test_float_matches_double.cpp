@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "scene_cases.hpp"
 #include "test_support.hpp"
 #if PT_HAVE_CUDA

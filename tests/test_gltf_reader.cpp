@@ -20,7 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "base/errors.hpp"
-#include "meshes/mesh.hpp"
+#include "loading/model_files.hpp"
 #include "test_support.hpp"
 
 namespace pt {

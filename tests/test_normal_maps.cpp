@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "kernel/integrator.hpp"
 #include "scene_cases.hpp"
 #include "test_support.hpp"

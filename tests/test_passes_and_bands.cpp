@@ -9,7 +9,7 @@
 #include <thread>
 #include <vector>
 
-#include "film/multi_backend.hpp"
+#include "backends/multi_backend.hpp"
 #include "test_support.hpp"
 
 namespace pt {

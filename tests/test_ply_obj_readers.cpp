@@ -18,7 +18,7 @@
 
 #include <fmt/format.h>
 
-#include "meshes/mesh.hpp"
+#include "loading/model_files.hpp"
 #include "test_support.hpp"
 
 namespace pt {

@@ -28,8 +28,8 @@
 #include "film/film.hpp"
 #include "flat/flat_scene.hpp"
 #include "image/image_io.hpp"
-#include "meshes/mesh.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/model_files.hpp"
+#include "loading/scene_loader.hpp"
 
 #ifndef PT_SOURCE_DIR
 #error "PT_SOURCE_DIR must name the source tree"

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "backends/cpu/cpu_backend.hpp"
 #include "integrators/wavefront.hpp"
 #include "film/film.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 #include "test_support.hpp"
 #if PT_HAVE_SYCL
 #include "backends/sycl/sycl_backend.hpp"

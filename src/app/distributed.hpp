@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "base/errors.hpp"
-#include "film/bands.hpp"
+#include "backends/bands.hpp"
 
 namespace pt {
 

@@ -7,7 +7,7 @@
 #include <fmt/format.h>
 
 #include "base/errors.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace pt {
 

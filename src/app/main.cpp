@@ -21,16 +21,16 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "app/distributed.hpp"
 #include "app/image_size.hpp"
 #include "app/numerics.hpp"
 #include "base/atomic_file.hpp"
 #include "film/checkpoint.hpp"
 #include "film/film.hpp"
-#include "film/multi_backend.hpp"
+#include "backends/multi_backend.hpp"
 #include "base/number_formats.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 #ifndef PT_VERSION
 #define PT_VERSION "0.0.0"
@@ -51,7 +51,7 @@ struct RenderOptions {
   std::optional<u32> width, height, spp, depth, seed;
   unsigned threads = 0;
   std::string backend = "cpu";
-  std::string device = "0";  // one device, or several (app/backends.hpp, DeviceList)
+  std::string device = "0";  // one device, or several (backends/registry.hpp, DeviceList)
   int sycl_device = -1;  // SYCL device index; negative: the runtime's default choice
   std::string number_format = "float";
   std::string integrator = "auto";

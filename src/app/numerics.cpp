@@ -10,12 +10,12 @@
 
 #include <fmt/format.h>
 
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 #include "app/image_size.hpp"
 #include "base/atomic_file.hpp"
 #include "film/film.hpp"
 #include "base/number_formats.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace pt {
 namespace {

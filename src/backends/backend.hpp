@@ -2,7 +2,6 @@
 // range of samples into the film it keeps, read the film back.
 #pragma once
 
-#include <algorithm>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -13,6 +12,7 @@
 
 #include "base/errors.hpp"
 #include "flat/flat_scene.hpp"
+#include "integrators/integrator_choice.hpp"
 
 namespace pt {
 
@@ -80,19 +80,5 @@ class RenderBackend {
   // pixel-samples it rendered since the last upload; empty for a single device.
   virtual std::vector<std::pair<std::string, u64>> work_shares() const { return {}; }
 };
-
-// Samples for the next synchronised batch of a device backend, so that a batch takes about target_seconds: often
-// enough for progress and error reports, rarely enough that a fast device is not left idle between batches.
-// `seconds` is what the last batch of `count` samples took; the size at most doubles from one batch to the next.
-inline u32 next_batch_samples(double seconds, u32 count, double target_seconds) {
-  const double per_sample = seconds / count;
-  const double wanted = per_sample > 0 ? target_seconds / per_sample : 2.0 * count;
-  return static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
-}
-
-// How paths are traced: each in one go (megakernel), or in stages over queues of paths (wavefront); kAuto lets the
-// backend take the one its device names as its faster (the megakernel on CPUs and through SYCL, the wavefront
-// through CUDA: BENCHMARKS.md).
-enum class Integrator { kMegakernel, kWavefront, kAuto };
 
 }  // namespace pt

@@ -20,8 +20,7 @@
 #include "flat/environment.hpp"
 #include "base/number_formats.hpp"
 #include "image/image_io.hpp"
-#include "meshes/mesh.hpp"
-#include "scene/scene_loader.hpp"
+#include "scene/mesh.hpp"
 
 namespace pt {
 

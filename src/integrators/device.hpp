@@ -1,6 +1,6 @@
 // The few operations the integrators need from a device: memory, copies, kernel launches over items or over an
 // image, synchronisation and timing. Each backend (CPU threads, CUDA, SYCL) provides them in a class of its own,
-// and the integrators above (megakernel.hpp, wavefront.hpp, device_backend.hpp) are written once over them.
+// and the integrators (megakernel.hpp, wavefront.hpp) are written once over them.
 #pragma once
 
 #include <concepts>
@@ -9,7 +9,8 @@
 #include <utility>
 #include <vector>
 
-#include "backends/backend.hpp"
+#include "base/errors.hpp"
+#include "integrators/integrator_choice.hpp"
 #include "kernel/platform.hpp"
 
 namespace pt {

@@ -4,11 +4,19 @@
 
 #include <algorithm>
 
-#include "backends/backend.hpp"
 #include "integrators/device.hpp"
 #include "kernel/integrator.hpp"
 
 namespace pt {
+
+// Samples for the next synchronised batch of a device backend, so that a batch takes about target_seconds: often
+// enough for progress and error reports, rarely enough that a fast device is not left idle between batches.
+// `seconds` is what the last batch of `count` samples took; the size at most doubles from one batch to the next.
+inline u32 next_batch_samples(double seconds, u32 count, double target_seconds) {
+  const double per_sample = seconds / count;
+  const double wanted = per_sample > 0 ? target_seconds / per_sample : 2.0 * count;
+  return static_cast<u32>(std::clamp(wanted, 1.0, 2.0 * count + 1));
+}
 
 template <Device D, class T>
 class MegakernelIntegrator {

@@ -195,7 +195,7 @@ class ObjectList {
 };
 
 // Where the parts of a parsed scene were written, so that checks made after parsing (flatten_scene) can name a value
-// as the parser does, FILE:LINE:COLUMN: /json/path (source_position in scene/scene_loader.hpp). Object i is
+// as the parser does, FILE:LINE:COLUMN: /json/path (source_position below). Object i is
 // always "/objects/i" and the camera "/camera"; textures and materials, written inline or under a name, are
 // listed here. Empty for scenes made in code.
 struct SceneSourceMap {
@@ -214,7 +214,7 @@ struct EnvironmentSettings {
   RigidTransform rotation;  // turns the image's frame into the world's
 };
 
-struct MeshFile;  // meshes/mesh.hpp
+struct MeshFile;  // scene/mesh.hpp
 
 // A model file a scene places, read once however often it is placed; its materials were added to the scene's.
 struct SceneMeshFile {
@@ -236,5 +236,10 @@ struct SceneDescription {
   std::vector<SceneMeshFile> mesh_files;
   std::vector<std::string> warnings;  // what is read but not rendered (a model file's unsupported features), one line each
 };
+
+// "FILE:LINE:COLUMN" of the value at the JSON path `pointer` in the file the scene was read from, or "FILE" where
+// that is unknown (a scene made in code, or a path not in the file). For messages about values found unfit after
+// parsing (by flattening, say); it reads the text again, so it is meant for errors only.
+std::string source_position(const SceneDescription& scene, const std::string& pointer);
 
 }  // namespace pt

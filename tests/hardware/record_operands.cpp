@@ -22,7 +22,7 @@
 #include "flat/flat_scene.hpp"
 #include "hardware/operands.hpp"
 #include "recorded_formats.hpp"  // generated: PT_FOR_EACH_RECORDED_FORMAT
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace pt::hardware {
 namespace {

@@ -26,7 +26,7 @@
 
 #include "flat/flat_scene.hpp"
 #include "scene/scene.hpp"
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 namespace {
 

@@ -6,7 +6,7 @@
 #include "backends/cpu/cpu_backend.hpp"
 #include "backends/cpu/cpu_device.hpp"
 #include "base/scalar_types.hpp"
-#include "integrators/device_backend.hpp"
+#include "backends/device_backend.hpp"
 
 namespace pt {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "base/scalar_types.hpp"
-#include "integrators/device_backend.hpp"
+#include "backends/device_backend.hpp"
 
 namespace pt {
 

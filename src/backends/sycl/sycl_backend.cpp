@@ -20,7 +20,7 @@
 #include <fmt/format.h>
 
 #include "base/scalar_types.hpp"
-#include "integrators/device_backend.hpp"
+#include "backends/device_backend.hpp"
 
 namespace pt {
 

@@ -1,4 +1,4 @@
-// A render backend made of a device and the integrators written once above it: the scene and film in device
+// A render backend made of a device and the integrators written once over it: the scene and film in device
 // memory, the megakernel or the wavefront integrator, timing and naming. A backend's source file instantiates
 // this with its device class (compiled by the backend's compiler, since the launches are templates).
 #pragma once

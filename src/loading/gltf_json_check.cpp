@@ -1,6 +1,6 @@
 // The glTF reader's first pass over the JSON: types, ranges, references, byte ranges, the node hierarchy, data
 // URIs, external buffer files and required extensions, each fault reported with its JSON path.
-#include "meshes/gltf_json_check.hpp"
+#include "loading/gltf_json_check.hpp"
 
 #include <sys/stat.h>
 

@@ -28,8 +28,8 @@
 
 #include "base/errors.hpp"
 #include "base/input_file.hpp"
-#include "meshes/gltf_json_check.hpp"
-#include "meshes/mesh.hpp"
+#include "loading/gltf_json_check.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt {
 

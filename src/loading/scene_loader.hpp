@@ -21,11 +21,6 @@ SceneDescription scene_from_model_file(const std::filesystem::path& file);
 // Parses scene text; `source` names it in messages and `base_folder` resolves image paths. Throws InputError.
 SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);
 
-// "FILE:LINE:COLUMN" of the value at the JSON path `pointer` in the file the scene was read from, or "FILE" where
-// that is unknown (a scene made in code, or a path not in the file). For messages about values found unfit after
-// parsing; it reads the text again, so it is meant for errors only.
-std::string source_position(const SceneDescription& scene, const std::string& pointer);
-
 // Adds a model file to the scene: its materials and textures (as the scene's own, MeshMaterial mapped onto them)
 // and the file to SceneDescription::mesh_files, whose index it returns; its warnings to the scene's. `pointer`
 // names the file's place in messages about its values. Throws InputError when the scene's images grow too large.

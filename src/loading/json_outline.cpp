@@ -1,6 +1,6 @@
 // The outline pass: nlohmann's SAX parser runs once over the text; values outside the long lists are built into a
 // JSON value as nlohmann's own DOM parser would, and each list entry is skipped, its text range noted.
-#include "scene/json_outline.hpp"
+#include "loading/json_outline.hpp"
 
 #include <cstdint>
 #include <utility>

@@ -1,5 +1,5 @@
 // Backend selection by name.
-#include "app/backends.hpp"
+#include "backends/registry.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -9,7 +9,7 @@
 
 #include "backends/cpu/cpu_backend.hpp"
 #include "base/number_formats.hpp"
-#include "film/multi_backend.hpp"
+#include "backends/multi_backend.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif

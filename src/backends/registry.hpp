@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "backends/backend.hpp"
-#include "film/bands.hpp"
+#include "backends/bands.hpp"
 
 namespace pt {
 
@@ -20,7 +20,7 @@ std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned
                                                Integrator integrator = Integrator::kMegakernel, int sycl_device = -1);
 
 // What --device names: one device, rendered as ever by its backend alone, or several ("all" or a list, even of
-// one device), which render one image in bands (film/multi_backend.hpp). Entries are device indices of the
+// one device), which render one image in bands (backends/multi_backend.hpp). Entries are device indices of the
 // backend (CUDA GPUs, SYCL devices), or kCpuDevice for a CPU device beside them or, with the cpu backend, several
 // CPU devices in one process (each with its share of the threads: the tests' stand-in for several GPUs).
 inline constexpr int kCpuDevice = -1;

@@ -1,5 +1,5 @@
 // The band scheduler: a shared counter of bands, one thread for each worker.
-#include "film/bands.hpp"
+#include "backends/bands.hpp"
 
 #include <algorithm>
 #include <atomic>

@@ -1,5 +1,5 @@
-// Several devices behind one backend: uploads to each, bands of each pass handed out by film/bands.hpp.
-#include "film/multi_backend.hpp"
+// Several devices behind one backend: uploads to each, bands of each pass handed out by backends/bands.hpp.
+#include "backends/multi_backend.hpp"
 
 #include <algorithm>
 #include <functional>

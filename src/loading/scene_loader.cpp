@@ -2,7 +2,7 @@
 // becomes an InputError naming the file, the line and column, and the JSON path of the offending value. The text
 // is first outlined (json_outline.hpp); the entries of the long lists are then parsed and read one at a time, and
 // a line and column are looked up only for an error.
-#include "scene/scene_loader.hpp"
+#include "loading/scene_loader.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -17,8 +17,8 @@
 
 #include "base/input_file.hpp"
 #include "image/image_io.hpp"
-#include "meshes/mesh.hpp"
-#include "scene/json_outline.hpp"
+#include "loading/model_files.hpp"
+#include "loading/json_outline.hpp"
 #include "scene/json_positions.hpp"
 #include "scene/json_scan.hpp"
 
@@ -741,12 +741,6 @@ SceneDescription parse_scene_text(std::shared_ptr<const std::string> text, const
 
 SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
   return parse_scene_text(std::make_shared<const std::string>(text), source, base_folder);
-}
-
-std::string source_position(const SceneDescription& scene, const std::string& pointer) {
-  if (!scene.written.text) return scene.source;
-  const TextPosition at = JsonPositions(*scene.written.text).find(pointer);
-  return at.line ? fmt::format("{}:{}:{}", scene.source, at.line, at.column) : scene.source;
 }
 
 namespace {

@@ -21,8 +21,8 @@
 #include <fmt/format.h>
 
 #include "base/errors.hpp"
-#include "meshes/mesh.hpp"
-#include "meshes/model_file_input.hpp"
+#include "loading/model_files.hpp"
+#include "loading/model_file_input.hpp"
 
 namespace pt {
 

@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 
 #include "base/errors.hpp"
-#include "meshes/mesh.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "backends/backend.hpp"
-#include "film/bands.hpp"
+#include "backends/bands.hpp"
 
 namespace pt {
 
