@@ -18,125 +18,97 @@ inline constexpr u32 kMaterialClasses = static_cast<u32>(std::variant_size_v<Mat
 enum WavefrontCounter : u32 { kCounterNextPaths = 0, kCounterEscaped = 1, kCounterShadow = 2, kCounterFirstMaterial = 3 };
 inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClasses;
 
-// The one list of what a path keeps in the pool between stages, as (type, name): each field is an array of the
-// pool (structure-of-arrays). The pool's members, its bytes per path and its allocation all follow from it.
-#define PT_PATH_POOL_FIELDS(FIELD) \
-  FIELD(Vec3<T>, origin)           \
-  FIELD(Vec3<T>, direction)        \
-  FIELD(T, time)                   \
-  FIELD(Color<T>, radiance)        \
-  FIELD(Color<T>, throughput)      \
-  FIELD(u32, bounce)               \
-  FIELD(u32, shadow_rays)          \
-  FIELD(T, scatter_pdf)            \
-  FIELD(u32, item)
+// What the stages keep of each path between them, each field listed once as (type, array, member of the state it
+// holds): the pool's arrays (structure-of-arrays), their loads and stores, its bytes per path and its allocation all
+// follow from these lists. The *_TAGS lists are what a pool keeps beside the state, written by its store's extra
+// arguments. A member added to PathState, Hit or ShadowRay and not listed here fails the size checks below.
 
-// The closest hit found for each slot by the intersect stage, read by the shade stage; listed the same way.
-#define PT_PATH_HIT_FIELDS(FIELD) \
-  FIELD(T, t)                     \
-  FIELD(T, b1)                    \
-  FIELD(T, b2)                    \
-  FIELD(u32, primitive)           \
-  FIELD(u32, triangle)
+// A path between bounces. `item` names the work item (pixel and sample) the path belongs to.
+#define PT_PATH_POOL_FIELDS(FIELD)          \
+  FIELD(Vec3<T>, origin, ray.origin)        \
+  FIELD(Vec3<T>, direction, ray.direction)  \
+  FIELD(T, time, ray.time)                  \
+  FIELD(Color<T>, radiance, radiance)       \
+  FIELD(Color<T>, throughput, throughput)   \
+  FIELD(u32, bounce, bounce)                \
+  FIELD(u32, shadow_rays, shadow_rays)      \
+  FIELD(T, scatter_pdf, scatter_pdf)
+#define PT_PATH_POOL_TAGS(TAG) TAG(u32, item)
+
+// The closest hit found for each slot by the intersect stage, read by the shade stage.
+#define PT_PATH_HIT_FIELDS(FIELD)   \
+  FIELD(T, t, t)                    \
+  FIELD(T, b1, b1)                  \
+  FIELD(T, b2, b2)                  \
+  FIELD(u32, primitive, primitive)  \
+  FIELD(u32, triangle, triangle)
+#define PT_PATH_HIT_TAGS(TAG)
 
 // The shadow rays the shade stage queued, read by the shadow stage; `item` is the path's work item and `slot` where
 // it went on in the next pool (kNoLight: it ended, and its result is final but for this ray's share).
-#define PT_SHADOW_FIELDS(FIELD) \
-  FIELD(Vec3<T>, origin)        \
-  FIELD(Vec3<T>, direction)     \
-  FIELD(T, time)                \
-  FIELD(Color<T>, weight)       \
-  FIELD(T, scatter_pdf)         \
-  FIELD(T, distance)            \
-  FIELD(T, light_pdf)           \
-  FIELD(u32, entry)             \
-  FIELD(u32, triangle)          \
-  FIELD(u32, item)              \
-  FIELD(u32, slot)
+#define PT_SHADOW_FIELDS(FIELD)                 \
+  FIELD(Vec3<T>, origin, ray.origin)            \
+  FIELD(Vec3<T>, direction, ray.direction)      \
+  FIELD(T, time, ray.time)                      \
+  FIELD(Color<T>, weight, weight)               \
+  FIELD(T, scatter_pdf, scatter_pdf)            \
+  FIELD(T, distance, distance)                  \
+  FIELD(T, light_pdf, light_pdf)                \
+  FIELD(u32, entry, entry)                      \
+  FIELD(u32, triangle, triangle)
+#define PT_SHADOW_TAGS(TAG) TAG(u32, item) TAG(u32, slot)
 
-#define PT_DECLARE_ARRAY(Type, name) Type* name;
-#define PT_ADD_BYTES(Type, name) +sizeof(Type)
-#define PT_VISIT_ARRAY(Type, name) visit(name);
+#define PT_DECLARE_ARRAY(Type, name, ...) Type* name;
+#define PT_ADD_BYTES(Type, name, ...) +sizeof(Type)
+#define PT_VISIT_ARRAY(Type, name, ...) visit(name);
+#define PT_LOAD_FIELD(Type, name, member) value.member = name[i];
+#define PT_STORE_FIELD(Type, name, member) name[i] = value.member;
 
-// A pool of paths, structure-of-arrays. `item` names the work item (pixel and sample) the path belongs to.
+// A structure-of-arrays pool of `State` values with the arrays FIELDS and TAGS list.
+#define PT_SOA_POOL(Pool, State, FIELDS, TAGS)                                                  \
+  FIELDS(PT_DECLARE_ARRAY)                                                                      \
+  TAGS(PT_DECLARE_ARRAY)                                                                        \
+  static constexpr u32 kBytesPerPath = 0 FIELDS(PT_ADD_BYTES) TAGS(PT_ADD_BYTES);               \
+  static_assert(sizeof(State) == 0 FIELDS(PT_ADD_BYTES), #Pool " lists every member of " #State); \
+  /* visit(array) for every array of the pool (host side: allocation) */                        \
+  template <class Visit>                                                                        \
+  void for_each_array(Visit&& visit) {                                                          \
+    FIELDS(PT_VISIT_ARRAY)                                                                      \
+    TAGS(PT_VISIT_ARRAY)                                                                        \
+  }                                                                                             \
+  PT_HD State load(u32 i) const {                                                               \
+    State value;                                                                                \
+    FIELDS(PT_LOAD_FIELD)                                                                       \
+    return value;                                                                               \
+  }                                                                                             \
+  PT_HD void store_state(u32 i, const State& value) const { FIELDS(PT_STORE_FIELD) }
+
+// A pool of paths.
 template <class T>
 struct PathPool {
-  PT_PATH_POOL_FIELDS(PT_DECLARE_ARRAY)
-
-  static constexpr u32 kBytesPerPath = 0 PT_PATH_POOL_FIELDS(PT_ADD_BYTES);
-
-  // visit(array) for every array of the pool (host side: allocation).
-  template <class Visit>
-  void for_each_array(Visit&& visit) {
-    PT_PATH_POOL_FIELDS(PT_VISIT_ARRAY)
-  }
-
-  PT_HD PathState<T> load(u32 i) const {
-    return PathState<T>{Ray<T>{origin[i], direction[i], time[i]}, radiance[i], throughput[i], bounce[i], shadow_rays[i], scatter_pdf[i]};
-  }
+  PT_SOA_POOL(PathPool, PathState<T>, PT_PATH_POOL_FIELDS, PT_PATH_POOL_TAGS)
   PT_HD void store(u32 i, const PathState<T>& path, u32 work_item) const {
-    origin[i] = path.ray.origin;
-    direction[i] = path.ray.direction;
-    time[i] = path.ray.time;
-    radiance[i] = path.radiance;
-    throughput[i] = path.throughput;
-    bounce[i] = path.bounce;
-    shadow_rays[i] = path.shadow_rays;
-    scatter_pdf[i] = path.scatter_pdf;
+    store_state(i, path);
     item[i] = work_item;
   }
 };
 
-// The queued shadow rays, structure-of-arrays.
+// The queued shadow rays.
 template <class T>
 struct ShadowQueue {
-  PT_SHADOW_FIELDS(PT_DECLARE_ARRAY)
-
-  static constexpr u32 kBytesPerPath = 0 PT_SHADOW_FIELDS(PT_ADD_BYTES);
-
-  template <class Visit>
-  void for_each_array(Visit&& visit) {
-    PT_SHADOW_FIELDS(PT_VISIT_ARRAY)
-  }
-
-  PT_HD ShadowRay<T> load(u32 i) const {
-    return ShadowRay<T>{Ray<T>{origin[i], direction[i], time[i]}, weight[i], scatter_pdf[i], distance[i], light_pdf[i], entry[i], triangle[i]};
-  }
+  PT_SOA_POOL(ShadowQueue, ShadowRay<T>, PT_SHADOW_FIELDS, PT_SHADOW_TAGS)
   PT_HD void store(u32 i, const ShadowRay<T>& shadow, u32 work_item, u32 next_slot) const {
-    origin[i] = shadow.ray.origin;
-    direction[i] = shadow.ray.direction;
-    time[i] = shadow.ray.time;
-    weight[i] = shadow.weight;
-    scatter_pdf[i] = shadow.scatter_pdf;
-    distance[i] = shadow.distance;
-    light_pdf[i] = shadow.light_pdf;
-    entry[i] = shadow.entry;
-    triangle[i] = shadow.triangle;
+    store_state(i, shadow);
     item[i] = work_item;
     slot[i] = next_slot;
   }
 };
 
-// The hits of a pool's paths, structure-of-arrays.
+// The hits of a pool's paths.
 template <class T>
 struct PathHits {
-  PT_PATH_HIT_FIELDS(PT_DECLARE_ARRAY)
-
-  static constexpr u32 kBytesPerPath = 0 PT_PATH_HIT_FIELDS(PT_ADD_BYTES);
-
-  template <class Visit>
-  void for_each_array(Visit&& visit) {
-    PT_PATH_HIT_FIELDS(PT_VISIT_ARRAY)
-  }
-
-  PT_HD Hit<T> load(u32 i) const { return Hit<T>{t[i], b1[i], b2[i], primitive[i], triangle[i]}; }
-  PT_HD void store(u32 i, const Hit<T>& hit) const {
-    t[i] = hit.t;
-    b1[i] = hit.b1;
-    b2[i] = hit.b2;
-    primitive[i] = hit.primitive;
-    triangle[i] = hit.triangle;
-  }
+  PT_SOA_POOL(PathHits, Hit<T>, PT_PATH_HIT_FIELDS, PT_PATH_HIT_TAGS)
+  PT_HD void store(u32 i, const Hit<T>& hit) const { store_state(i, hit); }
 };
 
 // Work items of a batch are sample-major: item = (sample - first_sample) * pixels + pixel.
@@ -191,9 +163,12 @@ struct WavefrontView {
   PT_HD u32 sample_of(u32 item) const { return first_sample + item / pixels; }
 };
 
+#undef PT_SOA_POOL
 #undef PT_DECLARE_ARRAY
 #undef PT_ADD_BYTES
 #undef PT_VISIT_ARRAY
+#undef PT_LOAD_FIELD
+#undef PT_STORE_FIELD
 
 template <class T>
 PT_HD inline SampleRandom wavefront_random(const SceneView<T>& scene, const WavefrontView<T>& w, u32 item) {
