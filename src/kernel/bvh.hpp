@@ -114,27 +114,41 @@ PT_HD inline BoxRay<T> make_box_ray(const Ray<T>& ray) {
                    neg_z ? lo_z : hi_z};
 }
 
+// What a walk of the binary tree tells its caller besides the leaves it enters: before each box test, the node and
+// the test's bounds (box_test), and before each node it goes to, whether to go on (keep_walking). The kernel's walks
+// take these, which do nothing and compile away; the hardware operand recorder (tests/hardware) records the box
+// tests, and the SYCL path probe (tools/sycl) counts the node visits and gives up a walk that does not end.
+struct NoWalkHooks {
+  template <class T>
+  PT_HD void box_test(const BvhNode<T>&, const BoxRay<T>&, T, T) const {}
+  PT_HD bool keep_walking() const { return true; }
+};
+
 // Walks the binary tree rooted at `root` by iterative traversal with a fixed-size stack, calling
 // leaf(first, count, closest) for each leaf the ray enters in front of the closest hit so far; the leaf narrows
 // `closest` and returns whether it found a hit. The scene's tree and each mesh's tree are walked by this.
-template <class T, class Leaf>
-PT_HD inline bool walk_binary(const BvhNode<T>* nodes, u32 root, const BoxRay<T>& box_ray, T& closest, Leaf& leaf) {
+template <class T, class Leaf, class Hooks = NoWalkHooks>
+PT_HD inline bool walk_binary(const BvhNode<T>* nodes, u32 root, const BoxRay<T>& box_ray, T& closest, Leaf& leaf, Hooks&& hooks = Hooks{}) {
   const T t_min = hit_distance_min<T>();
+  auto hits_box = [&](const BvhNode<T>& node, T& entry) {
+    hooks.box_test(node, box_ray, t_min, closest);
+    return ray_hits_box(node, box_ray, t_min, closest, entry);
+  };
   bool found = false;
   u32 stack[kBvhMaxDepth];
   u32 stack_size = 0;
   u32 node_index = root;
   T entry;
-  if (!ray_hits_box(nodes[root], box_ray, t_min, closest, entry)) return false;
-  while (true) {
+  if (!hits_box(nodes[root], entry)) return false;
+  while (hooks.keep_walking()) {
     const BvhNode<T>& node = nodes[node_index];
     if (node.count > 0) {
       found |= leaf(node.left_first, node.count, closest);
     } else {
       u32 near_child = node_index + 1, far_child = node.left_first;
       T near_entry, far_entry;
-      const bool near_hit = ray_hits_box(nodes[near_child], box_ray, t_min, closest, near_entry);
-      const bool far_hit = ray_hits_box(nodes[far_child], box_ray, t_min, closest, far_entry);
+      const bool near_hit = hits_box(nodes[near_child], near_entry);
+      const bool far_hit = hits_box(nodes[far_child], far_entry);
       if (near_hit && far_hit) {
         if (far_entry < near_entry) {
           const u32 swap = near_child;
@@ -442,13 +456,13 @@ struct SceneLeaf {
   }
 };
 
-// Closest hit along the ray (beyond zero) over the binary tree.
-template <class T>
+// Closest hit along the ray (beyond zero) over the binary tree; `hooks` see the walk of the scene's tree.
+template <class T, class Hooks = NoWalkHooks>
 PT_HD inline bool closest_hit_binary(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
-                                     T t_max = largest<T>()) {
+                                     T t_max = largest<T>(), Hooks&& hooks = Hooks{}) {
   T closest = t_max;
   SceneLeaf<T> leaf{scene, ray, context, hit};
-  return walk_binary(scene.nodes, 0u, make_box_ray(ray), closest, leaf);
+  return walk_binary(scene.nodes, 0u, make_box_ray(ray), closest, leaf, hooks);
 }
 
 // Closest hit along the ray (beyond zero) over the wide tree.

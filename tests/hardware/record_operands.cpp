@@ -73,45 +73,15 @@ class Sink {
   std::size_t recorded_ = 0;
 };
 
-// walk_binary (src/kernel/bvh.hpp) with each box test recorded before it is made.
-template <class T, class Leaf>
-bool recorded_walk(const BvhNode<T>* nodes, u32 root, const BoxRay<T>& box_ray, T& closest, Leaf& leaf, Sink& sink) {
-  const T t_min = hit_distance_min<T>();
-  auto hits_box = [&](const BvhNode<T>& node, T& entry) {
+// The kernel's walk of the binary tree (walk_binary, src/kernel/bvh.hpp) with each box test recorded before it is made.
+template <class T>
+struct BoxRecorder {
+  Sink& sink;
+  void box_test(const BvhNode<T>& node, const BoxRay<T>& box_ray, T t_min, T closest) const {
     if (sink.kind() == UnitKind::kBox) BoxOperands::pack(box_ray, node, t_min, closest, sink.next());
-    return ray_hits_box(node, box_ray, t_min, closest, entry);
-  };
-  bool found = false;
-  u32 stack[kBvhMaxDepth];
-  u32 stack_size = 0;
-  u32 node_index = root;
-  T entry;
-  if (!hits_box(nodes[root], entry)) return false;
-  while (true) {
-    const BvhNode<T>& node = nodes[node_index];
-    if (node.count > 0) {
-      found |= leaf(node.left_first, node.count, closest);
-    } else {
-      u32 near_child = node_index + 1, far_child = node.left_first;
-      T near_entry, far_entry;
-      const bool near_hit = hits_box(nodes[near_child], near_entry);
-      const bool far_hit = hits_box(nodes[far_child], far_entry);
-      if (near_hit && far_hit) {
-        if (far_entry < near_entry) std::swap(near_child, far_child);
-        stack[stack_size++] = far_child;
-        node_index = near_child;
-        continue;
-      }
-      if (near_hit || far_hit) {
-        node_index = near_hit ? near_child : far_child;
-        continue;
-      }
-    }
-    if (stack_size == 0) break;
-    node_index = stack[--stack_size];
   }
-  return found;
-}
+  bool keep_walking() const { return true; }
+};
 
 // MeshLeaf with each triangle test recorded.
 template <class T>
@@ -173,7 +143,7 @@ struct RecordedSceneLeaf {
         const Ray<T> local = instance_ray(scene.meshes, *instance, ray);
         const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];
         RecordedMeshLeaf<T> leaf{scene.meshes, mesh.first_vertex, local, hit, sink};
-        if (recorded_walk(scene.meshes.nodes, mesh.root, make_box_ray(local), closest, leaf, sink)) {
+        if (walk_binary(scene.meshes.nodes, mesh.root, make_box_ray(local), closest, leaf, BoxRecorder<T>{sink})) {
           hit.primitive = i;
           found = true;
         }
@@ -201,7 +171,7 @@ template <class T>
 bool recorded_closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, T t_max, Sink& sink) {
   T closest = t_max;
   RecordedSceneLeaf<T> leaf{scene, ray, context, hit, sink};
-  return recorded_walk(scene.nodes, 0u, make_box_ray(ray), closest, leaf, sink);
+  return walk_binary(scene.nodes, 0u, make_box_ray(ray), closest, leaf, BoxRecorder<T>{sink});
 }
 
 // Traces paths of one scene until `quota` operand sets are recorded or `max_samples` samples of every pixel are done.

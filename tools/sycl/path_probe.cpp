@@ -57,47 +57,18 @@ void print_vec(const char* name, const V& v) {
   std::printf(" %s (%.9g %.9g %.9g)", name, static_cast<double>(v.x), static_cast<double>(v.y), static_cast<double>(v.z));
 }
 
-// closest_hit_binary with a count of node visits that stops the walk at kVisitLimit: a copy, since the walk every
-// backend runs has no place for a counter and should not get one for a diagnosis.
+// The walk of closest_hit_binary with a count of its node visits, given up at kVisitLimit.
+struct VisitCounter {
+  u32& visits;
+  template <class T>
+  PT_HD void box_test(const BvhNode<T>&, const BoxRay<T>&, T, T) const {}
+  PT_HD bool keep_walking() const { return ++visits < kVisitLimit; }
+};
+
 template <class T>
 PT_HD bool counted_walk(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, u32& visits) {
-  const BoxRay<T> box_ray = make_box_ray(ray);
-  T closest = largest<T>();
-  bool found = false;
-  u32 stack[kBvhMaxDepth];
-  u32 stack_size = 0, node_index = 0;
-  T entry;
   visits = 0;
-  if (!ray_hits_box(scene.nodes[0], box_ray, T(0), closest, entry)) return false;
-  while (++visits < kVisitLimit) {
-    const BvhNode<T>& node = scene.nodes[node_index];
-    if (node.count > 0) {
-      found |= SceneLeaf<T>{scene, ray, context, hit}(node.left_first, node.count, closest);
-    } else {
-      u32 near_child = node_index + 1, far_child = node.left_first;
-      T near_entry, far_entry;
-      const bool near_hit = ray_hits_box(scene.nodes[near_child], box_ray, T(0), closest, near_entry);
-      const bool far_hit = ray_hits_box(scene.nodes[far_child], box_ray, T(0), closest, far_entry);
-      if (near_hit && far_hit) {
-        if (far_entry < near_entry) {
-          const u32 swap = near_child;
-          near_child = far_child;
-          far_child = swap;
-        }
-        if (stack_size >= kBvhMaxDepth) return found;  // cannot happen with the builder's depth limit
-        stack[stack_size++] = far_child;
-        node_index = near_child;
-        continue;
-      }
-      if (near_hit || far_hit) {
-        node_index = near_hit ? near_child : far_child;
-        continue;
-      }
-    }
-    if (stack_size == 0) break;
-    node_index = stack[--stack_size];
-  }
-  return found;
+  return closest_hit_binary(scene, ray, context, hit, largest<T>(), VisitCounter{visits});
 }
 
 // The megakernel's trace_sample, writing each step into `trace` (host memory on the device) before going on.
