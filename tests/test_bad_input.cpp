@@ -40,13 +40,8 @@ const std::string kBase = R"({
 )";
 const std::string kValidObject = R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": "white"})";
 
-std::string replaced(const std::string& text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  if (at == std::string::npos) throw std::logic_error("no '" + from + "' in the scene text");
-  return text.substr(0, at) + to + text.substr(at + from.size());
-}
-std::string with_object(const std::string& object) { return replaced(kBase, "OBJECT", object); }
-std::string with(const std::string& from, const std::string& to) { return replaced(with_object(kValidObject), from, to); }
+std::string with_object(const std::string& object) { return test::replaced(kBase, "OBJECT", object); }
+std::string with(const std::string& from, const std::string& to) { return test::replaced(with_object(kValidObject), from, to); }
 // The base scene with an environment background of these keys (besides its type).
 std::string environment(const std::string& keys) {
   return with(R"("objects": [)", R"("background": {"type": "environment", )" + keys + R"(}, "objects": [)");
@@ -143,7 +138,7 @@ std::vector<BadScene> bad_scenes() {
       {"MaterialIsANumber", with_object(sphere + R"("radius": 1, "material": 3})"), "/objects/1/material",
        "expected a material name or a material object, found a number", R"("material": ^3)"},
       // Missing required fields.
-      {"MissingCamera", replaced(with_object(kValidObject), R"(  "camera": {"look_from": [0, 0, 3], "look_at": [0, 0, 0], "vertical_fov": 40},
+      {"MissingCamera", test::replaced(with_object(kValidObject), R"(  "camera": {"look_from": [0, 0, 3], "look_at": [0, 0, 0], "vertical_fov": 40},
 )",
                                  ""),
        "(top level)", "missing required key 'camera'", "^{\n  \"render\""},
@@ -153,7 +148,7 @@ std::vector<BadScene> bad_scenes() {
        R"(^{"center": [2)"},
       {"MissingMaterial", with_object(sphere + R"("radius": 1})"), "/objects/1", "missing required key 'material'", R"(^{"type": "sphere", "center": [2)"},
       {"MissingFieldOfView", with(R"(, "vertical_fov": 40)", ""), "/camera", "missing required key 'vertical_fov'", R"("camera": ^{)"},
-      {"NoObjects", replaced(replaced(kBase, "    OBJECT\n", ""), R"(    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
+      {"NoObjects", test::replaced(test::replaced(kBase, "    OBJECT\n", ""), R"(    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
 )",
                              ""),
        "/objects", "expected between 1 and", R"("objects": ^[)"},

@@ -17,7 +17,6 @@
 namespace pt {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // A small map with strong contrast: a dim sky gradient, a sun of one texel 20000 times brighter than the sky, a
 // coloured patch and a black band (where the density must be 0).
@@ -66,13 +65,13 @@ void map_uv(const EnvironmentSettings& map, const Vec3d& world, double& u, doubl
   const Vec3d d{r.rotation[0][0] * world.x + r.rotation[1][0] * world.y + r.rotation[2][0] * world.z,
                 r.rotation[0][1] * world.x + r.rotation[1][1] * world.y + r.rotation[2][1] * world.z,
                 r.rotation[0][2] * world.x + r.rotation[1][2] * world.y + r.rotation[2][2] * world.z};
-  u = std::atan2(d.x, -d.z) / (2 * kPi) + 0.5;
-  v = std::acos(std::clamp(d.y / length(d), -1.0, 1.0)) / kPi;
+  u = std::atan2(d.x, -d.z) / (2 * test::kPi) + 0.5;
+  v = std::acos(std::clamp(d.y / length(d), -1.0, 1.0)) / test::kPi;
 }
 
 // The world direction of the map's (u, v).
 Vec3d map_direction(const EnvironmentSettings& map, double u, double v) {
-  const double azimuth = 2 * kPi * (u - 0.5), theta = kPi * v;
+  const double azimuth = 2 * test::kPi * (u - 0.5), theta = test::kPi * v;
   return map.rotation.apply_vector({std::sin(theta) * std::sin(azimuth), std::cos(theta), -std::sin(theta) * std::cos(azimuth)});
 }
 
@@ -101,7 +100,7 @@ void expect_samples_follow_pdf(const EnvironmentSettings& map, u64 seed) {
     for (u32 column = 0; column < columns; ++column) {
       const double u = (column + 0.5) / columns, v = (row + 0.5) / rows;
       const double pdf = static_cast<double>(background_pdf(background, test::to<T>(map_direction(map, u, v))));
-      expected[row * columns + column] = pdf * 2 * kPi * kPi * std::sin(kPi * v) / (static_cast<double>(columns) * rows);
+      expected[row * columns + column] = pdf * 2 * test::kPi * test::kPi * std::sin(test::kPi * v) / (static_cast<double>(columns) * rows);
     }
   double total = 0;
   for (double e : expected) total += e;
@@ -156,7 +155,7 @@ double pdf_integral_in_map(const EnvironmentSettings& map, const Background<T>& 
   for (u32 row = 0; row < rows; ++row)
     for (u32 column = 0; column < columns; ++column) {
       const double u = (column + 0.5) / columns, v = (row + 0.5) / rows;
-      sum += static_cast<double>(background_pdf(background, test::to<T>(map_direction(map, u, v)))) * 2 * kPi * kPi * std::sin(kPi * v);
+      sum += static_cast<double>(background_pdf(background, test::to<T>(map_direction(map, u, v)))) * 2 * test::kPi * test::kPi * std::sin(test::kPi * v);
     }
   return sum / (static_cast<double>(columns) * rows);
 }
@@ -166,10 +165,10 @@ double pdf_integral_in_world(const Background<T>& background, u32 n) {
   double sum = 0;
   for (u32 i = 0; i < n; ++i)
     for (u32 j = 0; j < 2 * n; ++j) {
-      const double z = -1 + 2 * (i + 0.5) / n, phi = 2 * kPi * (j + 0.5) / (2 * n), r = std::sqrt(1 - z * z);
+      const double z = -1 + 2 * (i + 0.5) / n, phi = 2 * test::kPi * (j + 0.5) / (2 * n), r = std::sqrt(1 - z * z);
       sum += static_cast<double>(background_pdf(background, test::to<T>(Vec3d{r * std::cos(phi), z, r * std::sin(phi)})));
     }
-  return sum * (2.0 / n) * (2 * kPi / (2 * n));
+  return sum * (2.0 / n) * (2 * test::kPi / (2 * n));
 }
 
 TEST(Environment, PdfIntegratesToOne) {
@@ -195,10 +194,10 @@ TEST(Environment, PdfIsProportionalToEachTexelsLuminance) {
   for (u32 row = 0; row < kHeight; ++row)
     for (u32 column = 0; column < kWidth; ++column) {
       const float* t = map.rgb.data() + 3 * (row * kWidth + column);
-      total_weight += luminance(t[0], t[1], t[2]) * std::sin(kPi * (row + 0.5) / kHeight);
+      total_weight += luminance(t[0], t[1], t[2]) * std::sin(test::kPi * (row + 0.5) / kHeight);
     }
   // pdf = luminance sin(theta) / (the mean of luminance sin(theta) over the texels) / (2 pi^2 sin(theta))
-  const double factor = static_cast<double>(kWidth * kHeight) / total_weight / (2 * kPi * kPi);
+  const double factor = static_cast<double>(kWidth * kHeight) / total_weight / (2 * test::kPi * test::kPi);
   for (u32 row = 0; row < kHeight; ++row)
     for (u32 column = 0; column < kWidth; ++column) {
       const float* t = map.rgb.data() + 3 * (row * kWidth + column);
@@ -209,7 +208,7 @@ TEST(Environment, PdfIsProportionalToEachTexelsLuminance) {
     }
   // The sun's texel holds most of the probability.
   const double sun = background_pdf(background, texel_centre(map, kSunColumn, kSunRow));
-  EXPECT_GT(sun * 2 * kPi * kPi * std::sin(kPi * (kSunRow + 0.5) / kHeight) / (kWidth * kHeight), 0.9);
+  EXPECT_GT(sun * 2 * test::kPi * test::kPi * std::sin(test::kPi * (kSunRow + 0.5) / kHeight) / (kWidth * kHeight), 0.9);
 }
 
 // What a sample says about its direction is what the density and the radiance say about it, bit for bit, for every
@@ -248,7 +247,7 @@ TEST(Environment, SamplePdfEqualsPdfOfItsDirection) {
     for (int i = 0; i < 4000; ++i) {
       const float u1 = uniform<float>(rng);
       const BackgroundSample<float> s = background_sample(background, u1, uniform<float>(rng));
-      EXPECT_FLOAT_EQ(s.pdf, static_cast<float>(1 / (4 * kPi)));
+      EXPECT_FLOAT_EQ(s.pdf, static_cast<float>(1 / (4 * test::kPi)));
       y_sum += s.direction.y;
     }
     EXPECT_NEAR(y_sum / 4000, 0.0, 4 * std::sqrt(1.0 / 3 / 4000));
@@ -262,7 +261,7 @@ TEST(Environment, RotationMovesTheBrightSpot) {
   // The sun moved to the centre texel's corner nearest (u, v) = (0.5, 0.5): texel (12, 6) spans u in [0.5, 0.54).
   std::fill(map.rgb.begin() + 3 * (kSunRow * kWidth + kSunColumn), map.rgb.begin() + 3 * (kSunRow * kWidth + kSunColumn) + 3, 0.5f);
   for (int c = 0; c < 3; ++c) map.rgb[3 * (6 * kWidth + 12) + c] = 5000.0f;
-  const double half_texel = kPi / kHeight / 2;  // the sun's texel centre is half a texel right of and below the centre
+  const double half_texel = test::kPi / kHeight / 2;  // the sun's texel centre is half a texel right of and below the centre
   const Vec3d sun_in_map = texel_centre(map, 12, 6);
   EXPECT_NEAR(sun_in_map.z, -std::cos(half_texel) * std::cos(half_texel), 1e-12);
   struct Case {
@@ -302,7 +301,7 @@ TEST(Environment, EscapedCameraRaySeesTexelTimesStrength) {
   write_image(dir / "map.exr", image);
   // Texel (5, 1): u = 0.6875 (the azimuth 2 pi (u - 0.5), 67.5 degrees from -z towards +x), v = 0.375 (theta 67.5
   // degrees from +y); then rotated 30 degrees about y, as the scene says.
-  const double azimuth = 2 * kPi * (0.6875 - 0.5), theta = kPi * 0.375;
+  const double azimuth = 2 * test::kPi * (0.6875 - 0.5), theta = test::kPi * 0.375;
   const Vec3d in_map{std::sin(theta) * std::sin(azimuth), std::cos(theta), -std::sin(theta) * std::cos(azimuth)};
   const Vec3d aim = RigidTransform::from_euler_degrees({0, 30, 0}, {}).apply_vector(in_map);
   const std::string text = R"({"render": {"width": 4, "height": 4, "samples_per_pixel": 4, "max_depth": 4},
@@ -344,7 +343,7 @@ TEST(Environment, LightSamplingEstimatesIrradiance) {
         for (int a = 0; a < 32; ++a)
           for (int b = 0; b < 32; ++b) {
             const double u = (column + (a + 0.5) / 32) / kWidth, v = (row + (b + 0.5) / 32) / kHeight;
-            integral += std::max(0.0, dot(normal, map_direction(map, u, v))) * 2 * kPi * kPi * std::sin(kPi * v) / (32.0 * 32 * kWidth * kHeight);
+            integral += std::max(0.0, dot(normal, map_direction(map, u, v))) * 2 * test::kPi * test::kPi * std::sin(test::kPi * v) / (32.0 * 32 * kWidth * kHeight);
           }
         exact += t[1] * integral;
       }
@@ -378,7 +377,7 @@ TEST(Environment, MeanRadianceIsTheSolidAngleWeightedTexelMean) {
   double expected = 0;
   for (u32 row = 0; row < kHeight; ++row)
     for (u32 column = 0; column < kWidth; ++column)
-      expected += 2 * sun.rgb[3 * (row * kWidth + column)] * (std::cos(kPi * row / kHeight) - std::cos(kPi * (row + 1) / kHeight)) / (2.0 * kWidth);
+      expected += 2 * sun.rgb[3 * (row * kWidth + column)] * (std::cos(test::kPi * row / kHeight) - std::cos(test::kPi * (row + 1) / kHeight)) / (2.0 * kWidth);
   EXPECT_NEAR(background_mean_radiance(scene_with<double>(sun)).x, expected, 1e-9 * expected);
 }
 

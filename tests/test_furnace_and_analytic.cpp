@@ -9,7 +9,6 @@
 namespace pt {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 std::string scene_json(const std::string& render, const std::string& camera, const std::string& background, const std::string& objects) {
   return R"({"render": )" + render + R"(, "camera": )" + camera + R"(, "background": )" + background + R"(, "objects": [)" + objects + "]}";
@@ -223,7 +222,7 @@ double sky(double horizon, double zenith, double direction_y) { return horizon +
 TEST(AnalyticRadiance, BackgroundSeenThroughPinholeMatchesSkyFormulaPerPixel) {
   // Direction through each pixel centre from the camera definition (look_from, look_at, up, vertical_fov; rows from
   // the top); the pixel mean over jittered rays matches the sky there up to second order in the pixel size.
-  const double elevation = 20 * kPi / 180, fov = 50;
+  const double elevation = 20 * test::kPi / 180, fov = 50;
   const Vec3d look_at{0, std::sin(elevation), -std::cos(elevation)};
   const u32 width = 33, height = 25;
   const std::string render = R"({"width": 33, "height": 25, "samples_per_pixel": 64, "max_depth": 4})";
@@ -234,7 +233,7 @@ TEST(AnalyticRadiance, BackgroundSeenThroughPinholeMatchesSkyFormulaPerPixel) {
   const SceneDescription scene = test::parse(scene_json(render, camera, sky_json, behind));
   const test::PixelStatistics stats = test::sample_statistics(test::flatten<double>(scene), 64);
   const Vec3d w = normalize(Vec3d{0, 0, 0} - normalize(look_at)), u = normalize(cross(Vec3d{0, 1, 0}, w)), v = cross(w, u);
-  const double half_height = std::tan(fov * kPi / 360), half_width = half_height * width / height;
+  const double half_height = std::tan(fov * test::kPi / 360), half_width = half_height * width / height;
   const double horizon[3] = {1, 0.9, 0.8}, zenith[3] = {0.1, 0.3, 0.9};
   int failures = 0;
   for (u32 y = 0; y < height; ++y)

@@ -13,7 +13,6 @@ namespace {
 
 using test::to;
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Texture 0: white; texture 1: a colour.
 template <class T>
@@ -61,14 +60,7 @@ bool scatter(const Material<T>& material, const Trial<T>& trial, const std::vect
 double azimuth(const Vec3d& n, const Vec3d& d) {
   const Vec3d helper = std::abs(n.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
   const Vec3d a = normalize(cross(n, helper)), b = cross(n, a);
-  return std::atan2(dot(d, b), dot(d, a)) + kPi;  // in [0, 2 pi]
-}
-
-double chi_square(const std::vector<long>& counts, long total) {
-  const double expected = static_cast<double>(total) / counts.size();
-  double sum = 0;
-  for (long c : counts) sum += (c - expected) * (c - expected) / expected;
-  return sum;
+  return std::atan2(dot(d, b), dot(d, a)) + test::kPi;  // in [0, 2 pi]
 }
 
 Vec3d to_double(const Vec3<float>& v) { return {v.x, v.y, v.z}; }
@@ -176,13 +168,13 @@ TEST(LambertianScattering, IsCosineDistributedAboutTheNormal) {
     ASSERT_GE(c, -1e-6);  // never below the surface
     cos_sum += c;
     ++cos2_counts[std::min(kBins - 1, static_cast<int>(c * c * kBins))];
-    ++azimuth_counts[std::min(kBins - 1, static_cast<int>(azimuth(normal, d) / (2 * kPi) * kBins))];
+    ++azimuth_counts[std::min(kBins - 1, static_cast<int>(azimuth(normal, d) / (2 * test::kPi) * kBins))];
   }
   // Chi-square with 19 degrees of freedom, bounds at p = 1e-6 each side.
-  EXPECT_GT(chi_square(cos2_counts, n), 2.0);
-  EXPECT_LT(chi_square(cos2_counts, n), 64.4);
-  EXPECT_GT(chi_square(azimuth_counts, n), 2.0);
-  EXPECT_LT(chi_square(azimuth_counts, n), 64.4);
+  EXPECT_GT(test::chi_square(cos2_counts, n), 2.0);
+  EXPECT_LT(test::chi_square(cos2_counts, n), 64.4);
+  EXPECT_GT(test::chi_square(azimuth_counts, n), 2.0);
+  EXPECT_LT(test::chi_square(azimuth_counts, n), 64.4);
   // The standard deviation of cos is sqrt(1/2 - 4/9) = 0.236.
   EXPECT_NEAR(cos_sum / n, 2.0 / 3.0, 5 * 0.236 / std::sqrt(static_cast<double>(n)));
 }
@@ -237,7 +229,7 @@ TEST(DielectricScattering, ObliqueRaysObeySnellAndSchlick) {
   const double ior = 1.5;
   for (const bool entering : {true, false}) {
     // Entering at 60 degrees (eta = 1/1.5), or leaving at 20 degrees (eta = 1.5, below the critical angle).
-    const double angle = (entering ? 60 : 20) * kPi / 180, eta = entering ? 1 / ior : ior;
+    const double angle = (entering ? 60 : 20) * test::kPi / 180, eta = entering ? 1 / ior : ior;
     const Vec3d n{0, 1, 0};
     const Vec3d d{std::sin(angle), -std::cos(angle), 0};
     constexpr int count = 50000;
@@ -268,7 +260,7 @@ TEST(DielectricScattering, ObliqueRaysObeySnellAndSchlick) {
 TEST(DielectricScattering, BeyondTheCriticalAngleReflectsTotally) {
   const std::vector<Texture<double>> textures = test_textures<double>();
   const Vec3d n{0, 1, 0};
-  const double angle = 45 * kPi / 180;  // critical angle of 1.5 is 41.8 degrees
+  const double angle = 45 * test::kPi / 180;  // critical angle of 1.5 is 41.8 degrees
   const Vec3d d{std::sin(angle), -std::cos(angle), 0};
   for (u32 i = 0; i < 2000; ++i) {
     Trial<double> trial;
@@ -297,8 +289,8 @@ TEST(IsotropicScattering, IsUniformOnTheSphere) {
     const double c = dot(d, to_double(trial.at.normal));
     ++counts[std::min(kBins - 1, static_cast<int>((c + 1) / 2 * kBins))];
   }
-  EXPECT_GT(chi_square(counts, n), 2.0);
-  EXPECT_LT(chi_square(counts, n), 64.4);
+  EXPECT_GT(test::chi_square(counts, n), 2.0);
+  EXPECT_LT(test::chi_square(counts, n), 64.4);
   EXPECT_LT(length(sum / static_cast<double>(n)), 5 * std::sqrt(1.0 / (3 * n)));
 }
 

@@ -16,7 +16,6 @@
 namespace pt {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Adaptive Simpson quadrature of f over [a, b] to an absolute tolerance, started on `pieces` equal parts so that a
 // narrow peak is not missed by the first five points.
@@ -67,7 +66,7 @@ struct ReferenceGgx {
     if (m.z <= 0) return 0;
     const double cos2 = m.z * m.z, tan2 = (1 - cos2) / cos2;
     const double k = 1 + tan2 / (alpha * alpha);
-    return 1 / (kPi * alpha * alpha * cos2 * cos2 * k * k);
+    return 1 / (test::kPi * alpha * alpha * cos2 * cos2 * k * k);
   }
   double lambda(const Vec3<double>& w) const {
     const double cos2 = w.z * w.z, tan2 = (1 - cos2) / cos2;
@@ -88,7 +87,7 @@ struct ReferenceGgx {
           if (wi.z <= 0) return 0.0;
           return d(m) * wm / wo.z * g2(wo, wi);
         },
-        kLocal, 0, 1, 0, 2 * kPi, tolerance);
+        kLocal, 0, 1, 0, 2 * test::kPi, tolerance);
   }
 };
 
@@ -136,7 +135,7 @@ TEST(Microfacet, FrameIsOrthonormalForEveryNormal) {
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<Vec3<double>> normals = {{0, 0, 1}, {0, 0, -1}, {1, 0, 0}, {0, -1, 0}, {0, 1e-9, -1}};
   for (int i = 0; i < 1000; ++i) {
-    const double z = 1 - 2 * u(rng), phi = 2 * kPi * u(rng), r = std::sqrt(1 - z * z);
+    const double z = 1 - 2 * u(rng), phi = 2 * test::kPi * u(rng), r = std::sqrt(1 - z * z);
     normals.push_back({r * std::cos(phi), r * std::sin(phi), z});
   }
   for (const Vec3<double>& n : normals) {
@@ -157,7 +156,7 @@ const double kAlphas[] = {0.01, 0.05, 0.2, 0.5, 1.0};
 TEST(Microfacet, DistributionIsNormalised) {
   // The projected area of the microfacets is the macro-surface's: integral of D(m) cos(theta_m) dm = 1.
   for (const double alpha : kAlphas) {
-    const double total = integrate([&](double c) { return ggx_d(alpha, direction_at(c)) * c * 2 * kPi; }, 0, 1, 1e-9, 64);
+    const double total = integrate([&](double c) { return ggx_d(alpha, direction_at(c)) * c * 2 * test::kPi; }, 0, 1, 1e-9, 64);
     EXPECT_NEAR(total, 1, 1e-4) << "alpha " << alpha;
   }
 }
@@ -169,7 +168,7 @@ TEST(Microfacet, VisibleNormalsAreNormalised) {
     for (const double c : {1.0, 0.7, 0.3, 0.05}) {
       const Vec3<double> wo = direction_at(c, 1.1);
       const double total = integrate_directions([&](const Vec3<double>& m) { return std::max(0.0, dot(wo, m)) * ggx_d(alpha, m); }, kLocal, 0, 1, 0,
-                                                2 * kPi, 1e-7);
+                                                2 * test::kPi, 1e-7);
       EXPECT_NEAR(ggx_g1(alpha, wo) * total / wo.z, 1, 2e-3) << "alpha " << alpha << ", cos " << c;
     }
 }
@@ -193,7 +192,7 @@ TEST(Microfacet, ReflectionPdfIntegratesToOneOverTheSphere) {
       const Vec3<double> wo = direction_at(c, 0.4);
       const ShadingFrame<double> about_mirror = frame_from_normal(Vec3<double>{-wo.x, -wo.y, wo.z});
       const double total = integrate_directions([&](const Vec3<double>& wi) { return ggx_reflection_pdf(alpha, wo, wi); }, about_mirror, -1, 1, 0,
-                                                2 * kPi, 1e-7, 16);
+                                                2 * test::kPi, 1e-7, 16);
       EXPECT_NEAR(total, 1, 2e-3) << "alpha " << alpha << ", cos " << c;
     }
 }
@@ -251,9 +250,9 @@ double chi_square_p_value(const Case& c, u64 seed, std::string& report) {
     }
     const double z = std::clamp(static_cast<double>(s.wi.z), -1.0, 1.0);
     double phi = std::atan2(static_cast<double>(s.wi.y), static_cast<double>(s.wi.x));
-    if (phi < 0) phi += 2 * kPi;
+    if (phi < 0) phi += 2 * test::kPi;
     const int ci = std::min(kCosBins - 1, static_cast<int>((z + 1) / 2 * kCosBins));
-    const int pi_ = std::min(kPhiBins - 1, static_cast<int>(phi / (2 * kPi) * kPhiBins));
+    const int pi_ = std::min(kPhiBins - 1, static_cast<int>(phi / (2 * test::kPi) * kPhiBins));
     observed[ci * kPhiBins + pi_] += 1;
   }
   std::vector<double> expected(kCosBins * kPhiBins + 1, 0.0);
@@ -263,7 +262,7 @@ double chi_square_p_value(const Case& c, u64 seed, std::string& report) {
     const double c0 = -1 + 2.0 * ci / kCosBins, c1 = -1 + 2.0 * (ci + 1) / kCosBins;
     if (c1 <= 0) continue;  // reflection only: the pdf is zero below the surface (samples there fail below)
     for (int pj = 0; pj < kPhiBins; ++pj) {
-      const double p0 = 2 * kPi * pj / kPhiBins, p1 = 2 * kPi * (pj + 1) / kPhiBins;
+      const double p0 = 2 * test::kPi * pj / kPhiBins, p1 = 2 * test::kPi * (pj + 1) / kPhiBins;
       const double p = integrate_directions([&](const Vec3<double>& wi) { return evaluate_metallic_roughness(lobes, wo_d, wi).pdf; }, kLocal, c0, c1, p0,
                                             p1, 1e-8, 2);
       expected[ci * kPhiBins + pj] = p * kSamples;
@@ -343,7 +342,7 @@ TEST(Microfacet, PdfIntegratesToTheProbabilityOfAValidSample) {
     const MetallicRoughnessLobes<double> lobes = metallic_roughness_lobes(params, wo);
     const ShadingFrame<double> about_mirror = frame_from_normal(Vec3<double>{-wo.x, -wo.y, wo.z});
     const double integral = integrate_directions([&](const Vec3<double>& wi) { return evaluate_metallic_roughness(lobes, wo, wi).pdf; }, about_mirror, -1,
-                                                 1, 0, 2 * kPi, 1e-7, 16);
+                                                 1, 0, 2 * test::kPi, 1e-7, 16);
     Uniforms<double> u(5);
     constexpr int kSamples = 400000;
     int valid = 0;
@@ -364,7 +363,7 @@ TEST(Microfacet, BsdfIsReciprocal) {
   for (int i = 0; i < 2000; ++i) {
     const Case c{u(rng), u(rng) < 0.3 ? 0.0 : u(rng), 0, {u(rng), u(rng), u(rng)}};
     const MetallicRoughnessParams<double> params = params_of<double>(c);
-    const Vec3<double> a = direction_at(std::max(1e-3, u(rng)), 2 * kPi * u(rng)), b = direction_at(std::max(1e-3, u(rng)), 2 * kPi * u(rng));
+    const Vec3<double> a = direction_at(std::max(1e-3, u(rng)), 2 * test::kPi * u(rng)), b = direction_at(std::max(1e-3, u(rng)), 2 * test::kPi * u(rng));
     const Color<double> fab = evaluate_metallic_roughness(params, a, b).f_cos / b.z;
     const Color<double> fba = evaluate_metallic_roughness(params, b, a).f_cos / a.z;
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(fab[k], fba[k], 1e-9 * std::max(1.0, std::abs(fab[k]))) << describe(c);

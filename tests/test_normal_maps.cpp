@@ -267,13 +267,6 @@ TEST(NormalMappedMaterial, ScatterAndEvaluateShareTheMappedFrame) {
 
 // ---- Renders ----
 
-// A PPM image of width x height texels, each three bytes as given (read as they are: a normal map is linear data).
-void write_ppm(const std::filesystem::path& path, u32 width, u32 height, const std::vector<u8>& rgb) {
-  std::string text = "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
-  text.append(reinterpret_cast<const char*>(rgb.data()), rgb.size());
-  test::write_text_file(path, text);
-}
-
 // A floor, a ball, a triangle with uvs and an OBJ quad, each metallic-roughness with the normal map NORMALS (or
 // none), under a sky and a small light.
 std::string normal_map_scene(const std::string& normal_keys) {
@@ -301,8 +294,8 @@ void write_normal_map_files(const test::TempDir& dir) {
     const double x = rng.uniform(-0.6, 0.6), y = rng.uniform(-0.6, 0.6), z = std::sqrt(std::max(0.0, 1 - x * x - y * y));
     for (const double c : {x, y, z}) bumps.push_back(static_cast<u8>(std::lround((c + 1) * 127.5)));
   }
-  write_ppm(dir / "bumps.ppm", 8, 8, bumps);
-  write_ppm(dir / "flat.ppm", 1, 1, {128, 128, 255});
+  test::write_ppm(dir / "bumps.ppm", 8, 8, bumps);
+  test::write_ppm(dir / "flat.ppm", 1, 1, {128, 128, 255});
   test::write_text_file(dir / "quad.mtl", "newmtl bumpy\nKd 0.6 0.7 0.8\nPr 0.5\nnorm -bm 1.5 bumps.ppm\n");
   test::write_text_file(dir / "quad.obj",
                         "mtllib quad.mtl\nv -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"

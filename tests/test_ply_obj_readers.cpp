@@ -675,17 +675,10 @@ TEST(ObjReader, SpecularAndPbrStatementsChooseTheMetallicRoughnessModel) {
       << all_warnings(file);
 }
 
-// A P6 PPM image (bytes as given).
-void write_ppm(const std::filesystem::path& path, u32 width, u32 height, const std::vector<u8>& rgb) {
-  std::string text = "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
-  text.append(reinterpret_cast<const char*>(rgb.data()), rgb.size());
-  test::write_text_file(path, text);
-}
-
 TEST(ObjReader, NormalMapsFromNormOrFromABumpStatementThatHoldsOne) {
   test::TempDir dir;
-  write_ppm(dir / "normals.ppm", 2, 1, {128, 128, 255, 200, 128, 230});
-  write_ppm(dir / "height.ppm", 2, 1, {10, 10, 10, 200, 200, 200});
+  test::write_ppm(dir / "normals.ppm", 2, 1, {128, 128, 255, 200, 128, 230});
+  test::write_ppm(dir / "height.ppm", 2, 1, {10, 10, 10, 200, 200, 200});
   test::write_text_file(dir / "n.mtl",
                         "newmtl normed\nKd 0.5 0.5 0.5\nnorm -bm 0.5 normals.ppm\n\n"
                         "newmtl bumped\nKd 0.5 0.5 0.5\nmap_Bump normals.ppm\n\n"
@@ -710,9 +703,9 @@ TEST(ObjReader, NormalMapsFromNormOrFromABumpStatementThatHoldsOne) {
 
 TEST(ObjReader, MetallicAndRoughnessMapsArePackedAsGltfDoes) {
   test::TempDir dir;
-  write_ppm(dir / "metal.ppm", 2, 1, {0, 0, 0, 255, 255, 255});
-  write_ppm(dir / "rough.ppm", 1, 1, {100, 100, 100});
-  write_ppm(dir / "rough-green.ppm", 2, 1, {1, 50, 2, 3, 60, 4});
+  test::write_ppm(dir / "metal.ppm", 2, 1, {0, 0, 0, 255, 255, 255});
+  test::write_ppm(dir / "rough.ppm", 1, 1, {100, 100, 100});
+  test::write_ppm(dir / "rough-green.ppm", 2, 1, {1, 50, 2, 3, 60, 4});
   test::write_text_file(dir / "p.mtl",
                         "newmtl both\nKd 0.5 0.5 0.5\nmap_Pm metal.ppm\nmap_Pr rough.ppm\n\n"
                         "newmtl scaled\nKd 0.5 0.5 0.5\nPr 0.5\nmap_Pr -imfchan g rough-green.ppm\nPm 0.25\n");

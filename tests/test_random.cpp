@@ -35,14 +35,6 @@ DrawInputs vary(DrawInputs base, int axis, u32 value) {
 const char* const kAxisNames[5] = {"seed", "pixel", "sample", "bounce", "dimension"};
 constexpr DrawInputs kBase{1, 1234, 5, 2, kDimScatter};
 
-// Pearson's chi-square statistic of the counts against equal expected counts.
-double chi_square(const std::vector<long>& counts, long total) {
-  const double expected = static_cast<double>(total) / counts.size();
-  double sum = 0;
-  for (long c : counts) sum += (c - expected) * (c - expected) / expected;
-  return sum;
-}
-
 TEST(RandomIsPureFunctionOfInputs, SameInputsGiveSameBits) {
   test::TestRandom rng(1);
   for (int i = 0; i < 10000; ++i) {
@@ -114,7 +106,7 @@ TEST(UniformDraws, ChiSquareUniformAlongEveryInput) {
       in = vary(in, (axis + 1) % 5, i >> 11);
       ++counts[static_cast<int>(draw_uniform(in) * kBins)];
     }
-    const double chi2 = chi_square(counts, kDraws);
+    const double chi2 = test::chi_square(counts, kDraws);
     EXPECT_GT(chi2, 22.9) << kAxisNames[axis];
     EXPECT_LT(chi2, 131.7) << kAxisNames[axis];
   }
@@ -138,7 +130,7 @@ TEST(UniformDraws, PairsAndTwoDimensionsAreUniformInTheUnitSquare) {
       }
       ++counts[static_cast<int>(a * kBins) * kBins + static_cast<int>(b * kBins)];
     }
-    const double chi2 = chi_square(counts, draws);
+    const double chi2 = test::chi_square(counts, draws);
     EXPECT_GT(chi2, 161.5) << (pair ? "pair" : "dimensions");
     EXPECT_LT(chi2, 377.2) << (pair ? "pair" : "dimensions");
   }
@@ -243,7 +235,7 @@ TEST(SamplingHelpers, UnitVectorsAreUnitAndUniformOnTheSphere) {
     sum += Vec3d{v.x, v.y, v.z};
     ++counts[std::min(kBins - 1, static_cast<int>((v.z + 1) / 2 * kBins))];
   }
-  const double chi2 = chi_square(counts, n);
+  const double chi2 = test::chi_square(counts, n);
   EXPECT_GT(chi2, 2.0);
   EXPECT_LT(chi2, 64.4);
   // Each component has variance 1/3.
@@ -299,7 +291,7 @@ TEST(SamplingHelpers, DiskPointsAreUniformInTheUnitDisk) {
     ++angular[std::min(kBins - 1, static_cast<int>(angle / (2 * 3.14159265358979323846) * kBins))];
   }
   for (const auto* counts : {&radial, &angular}) {
-    const double chi2 = chi_square(*counts, n);
+    const double chi2 = test::chi_square(*counts, n);
     EXPECT_GT(chi2, 2.0);
     EXPECT_LT(chi2, 64.4);
   }

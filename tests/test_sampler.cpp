@@ -22,14 +22,6 @@ using test::statistics_on;
 
 SampleRandom sobol(u32 seed, u32 pixel, u32 sample) { return SampleRandom::make(seed, pixel, sample, SamplerKind::kSobol); }
 
-// Pearson's chi-square statistic of the counts against equal expected counts.
-double chi_square(const std::vector<long>& counts, long total) {
-  const double expected = static_cast<double>(total) / counts.size();
-  double sum = 0;
-  for (long c : counts) sum += (c - expected) * (c - expected) / expected;
-  return sum;
-}
-
 // True when the 2^k points, in [0, 1)^2, put exactly one point in every box 2^-a wide and 2^-(k-a) high, for
 // every a: a (0, k, 2)-net in base 2.
 bool is_net(const std::vector<std::pair<double, double>>& points, u32 k) {
@@ -98,7 +90,7 @@ TEST(SobolSampler, OneSampleIsUniformOverPixels) {
     }
     // 19 degrees of freedom: P(chi2 > 43.8) = 0.001, P(chi2 < 6.8) = 0.005.
     for (const auto* counts : {&first, &second, &single}) {
-      const double chi2 = chi_square(*counts, n);
+      const double chi2 = test::chi_square(*counts, n);
       EXPECT_GT(chi2, 4.0) << "sample " << sample;
       EXPECT_LT(chi2, 50.0) << "sample " << sample;
     }

@@ -89,6 +89,30 @@ inline void write_text_file(const std::filesystem::path& path, const std::string
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
+// A P6 PPM image of width x height texels, each three bytes as given (read as they are: a normal map is linear data).
+inline void write_ppm(const std::filesystem::path& path, u32 width, u32 height, const std::vector<u8>& rgb) {
+  std::string text = "P6\n" + std::to_string(width) + " " + std::to_string(height) + "\n255\n";
+  text.append(reinterpret_cast<const char*>(rgb.data()), rgb.size());
+  write_text_file(path, text);
+}
+
+// Pearson's chi-square statistic of counts that should be uniform over their bins.
+inline double chi_square(const std::vector<long>& counts, long total) {
+  const double expected = static_cast<double>(total) / counts.size();
+  double sum = 0;
+  for (long c : counts) sum += (c - expected) * (c - expected) / expected;
+  return sum;
+}
+
+// `text` with the first `from` replaced by `to`; a `from` that is not there is a mistake in the test.
+inline std::string replaced(const std::string& text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos) throw std::logic_error("no '" + from + "' in the text");
+  return text.substr(0, at) + to + text.substr(at + from.size());
+}
+
+inline constexpr double kPi = 3.14159265358979323846;
+
 inline std::string read_text_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;

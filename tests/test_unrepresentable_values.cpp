@@ -14,10 +14,10 @@
 namespace pt {
 namespace {
 
-const std::string kSource = "values.json";
+const std::string kValuesSource = "values.json";
 
 // A valid scene whose second object (index 1), camera or lamp material each case replaces.
-const std::string kBase = R"({
+const std::string kValuesBase = R"({
   "render": {"width": 8, "height": 6, "samples_per_pixel": 1, "max_depth": 4},
   "camera": {"look_from": LOOK_FROM, "look_at": [0, 0, 0], "vertical_fov": 40},
   "materials": {
@@ -37,16 +37,10 @@ struct Parts {
   std::string lamp = "[4, 4, 4]";
 };
 
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  if (at == std::string::npos) throw std::logic_error("no '" + from + "' in the scene text");
-  return text.replace(at, from.size(), to);
-}
-
 std::string scene_text(const Parts& parts) {
-  return replaced(replaced(replaced(kBase, "OBJECT", parts.object), "LOOK_FROM", parts.look_from), "LAMP", parts.lamp);
+  return test::replaced(test::replaced(test::replaced(kValuesBase, "OBJECT", parts.object), "LOOK_FROM", parts.look_from), "LAMP", parts.lamp);
 }
-std::string with_object(const std::string& object) {
+std::string with_value_object(const std::string& object) {
   Parts parts;
   parts.object = object;
   return scene_text(parts);
@@ -58,14 +52,14 @@ std::string place_of(const std::string& text, const std::string& marker) {
   if (found == std::string::npos || text.find(marker, found + 1) != std::string::npos)
     throw std::logic_error("marker '" + marker + "' is not unique in the scene text");
   const TextPosition at = JsonPositions::position_of_offset(text, found);
-  return kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": ";
+  return kValuesSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": ";
 }
 
 // Flattening the text in format T fails with one line that starts with the place of `marker` and the JSON path
 // `pointer`, and contains every one of `parts` (the value, the format, ...).
 template <class T>
 void expect_refused(const std::string& text, const std::string& marker, const std::string& pointer, const std::vector<std::string>& parts) {
-  const SceneDescription scene = test::parse(text, kSource);  // the parser accepts it: the value is finite
+  const SceneDescription scene = test::parse(text, kValuesSource);  // the parser accepts it: the value is finite
   try {
     test::flatten<T>(scene);
     FAIL() << "accepted in " << number_format_name<T>() << ":\n" << text;
@@ -80,7 +74,7 @@ void expect_refused(const std::string& text, const std::string& marker, const st
 
 template <class T>
 void expect_accepted(const std::string& text) {
-  const SceneDescription scene = test::parse(text, kSource);
+  const SceneDescription scene = test::parse(text, kValuesSource);
   EXPECT_NO_THROW(test::flatten<T>(scene)) << number_format_name<T>() << ":\n" << text;
 }
 
@@ -95,29 +89,29 @@ TEST(UnrepresentableValues, BaseSceneFlattensInEveryFormat) {
 }
 
 TEST(UnrepresentableValues, SphereRadiusBeyondFloat) {
-  expect_refused<float>(with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"), "1e30", "/objects/1/radius",
+  expect_refused<float>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"), "1e30", "/objects/1/radius",
                         {"1e+30 " + kFloatLengths});
   // The limit is 2^56, about 7.2e16: just inside it renders in float; double takes the large radius.
-  expect_accepted<float>(with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 7e16, "material": "white"})"));
-  expect_accepted<double>(with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"));
+  expect_accepted<float>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 7e16, "material": "white"})"));
+  expect_accepted<double>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"));
 }
 
 TEST(UnrepresentableValues, CoordinateBeyondFloat) {
   // As written: the component is named.
-  expect_refused<float>(with_object(R"({"type": "quad", "corner": [1e25, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"), "1e25",
+  expect_refused<float>(with_value_object(R"({"type": "quad", "corner": [1e25, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"), "1e25",
                         "/objects/1/corner/0", {"1e+25 " + kFloatLengths});
   // Moved there by a translation: the position written is named, and the value after the transform.
   expect_refused<float>(
-      with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "transform": {"translate": [0, 1e17, 0]}, "material": "white"})"),
+      with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "transform": {"translate": [0, 1e17, 0]}, "material": "white"})"),
       R"([2, 0, 0])", "/objects/1/center", {"1e+17 (after the object's transform) " + kFloatLengths});
   // A box's corner, as written.
-  expect_refused<float>(with_object(R"({"type": "box", "min": [0, 0, 0], "max": [1, 1e17, 1], "material": "white"})"), "1e17", "/objects/1/max/1",
+  expect_refused<float>(with_value_object(R"({"type": "box", "min": [0, 0, 0], "max": [1, 1e17, 1], "material": "white"})"), "1e17", "/objects/1/max/1",
                         {"1e+17 " + kFloatLengths});
   // Just inside the limit.
-  expect_accepted<float>(with_object(R"({"type": "quad", "corner": [7e16, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"));
+  expect_accepted<float>(with_value_object(R"({"type": "quad", "corner": [7e16, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"));
   expect_accepted<float>(
-      with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "transform": {"translate": [0, 7e16, 0]}, "material": "white"})"));
-  expect_accepted<double>(with_object(R"({"type": "quad", "corner": [1e25, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"));
+      with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "transform": {"translate": [0, 7e16, 0]}, "material": "white"})"));
+  expect_accepted<double>(with_value_object(R"({"type": "quad", "corner": [1e25, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"));
 }
 
 TEST(UnrepresentableValues, EmissionBeyondFloatAndDouble) {
@@ -128,7 +122,7 @@ TEST(UnrepresentableValues, EmissionBeyondFloatAndDouble) {
   expect_refused<double>(scene_text(named), "1e308", "/materials/lamp/emission/0", {"1e+308 " + kDoubleColours});
   // Inline in an object.
   const std::string inline_lamp =
-      with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": {"type": "diffuse_light", "emission": [1, 1e20, 1]}})");
+      with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "material": {"type": "diffuse_light", "emission": [1, 1e20, 1]}})");
   expect_refused<float>(inline_lamp, "1e20", "/objects/1/material/emission/1", {"1e+20 " + kFloatColours});
   expect_accepted<double>(inline_lamp);
   // Just inside: 2^56 (about 7.2e16) in float, 2^504 (about 5.2e151) in double.
@@ -138,7 +132,7 @@ TEST(UnrepresentableValues, EmissionBeyondFloatAndDouble) {
   inside.lamp = "[5e151, 1, 1]";
   expect_accepted<double>(scene_text(inside));
   // Every colour is radiance-like: an albedo and a background too.
-  expect_refused<float>(replaced(scene_text(Parts{}), R"("objects": [)", R"("background": {"type": "constant", "color": [0, 0, 1e18]}, "objects": [)"),
+  expect_refused<float>(test::replaced(scene_text(Parts{}), R"("objects": [)", R"("background": {"type": "constant", "color": [0, 0, 1e18]}, "objects": [)"),
                         "1e18", "/background/color/2", {"1e+18 " + kFloatColours});
 }
 
@@ -157,21 +151,21 @@ TEST(UnrepresentableValues, CameraBeyondFloatAndDouble) {
 
 TEST(UnrepresentableValues, TriangleEdgeBeyondFloat) {
   // A triangle's normal squares the squared length of cross(edge1, edge2): its edges have a range of their own.
-  expect_refused<float>(with_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"), "[2e9, 0, 0]",
+  expect_refused<float>(with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"), "[2e9, 0, 0]",
                         "/objects/1/vertices/1",
                         {"2e+09 (the edge from vertex 0) is beyond float's supported range for triangle edges (|x| <= 1.07e+09; see docs/scene-format.md)"});
-  expect_accepted<float>(with_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [1e9, 0, 0], [0, 1, 0]], "material": "white"})"));
-  expect_accepted<double>(with_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"));
+  expect_accepted<float>(with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [1e9, 0, 0], [0, 1, 0]], "material": "white"})"));
+  expect_accepted<double>(with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"));
 }
 
 TEST(UnrepresentableValues, MediumWithTinyDensity) {
   // 1 / density is the mean free path, a length.
   const std::string medium = R"({"type": "medium", "boundary": {"type": "sphere", "center": [2, 0, 0], "radius": 0.5}, "density": DENSITY, )"
                              R"("material": {"type": "isotropic", "albedo": [1, 1, 1]}})";
-  expect_refused<float>(with_object(replaced(medium, "DENSITY", "1e-30")), "1e-30", "/objects/1/density",
+  expect_refused<float>(with_value_object(test::replaced(medium, "DENSITY", "1e-30")), "1e-30", "/objects/1/density",
                         {"1e+30 (1 / density, the mean free path) " + kFloatLengths});
-  expect_accepted<float>(with_object(replaced(medium, "DENSITY", "1.5e-17")));
-  expect_accepted<double>(with_object(replaced(medium, "DENSITY", "1e-30")));
+  expect_accepted<float>(with_value_object(test::replaced(medium, "DENSITY", "1.5e-17")));
+  expect_accepted<double>(with_value_object(test::replaced(medium, "DENSITY", "1e-30")));
 }
 
 TEST(UnrepresentableValues, FixedPointValueOutOfRange) {
@@ -184,7 +178,7 @@ TEST(UnrepresentableValues, FixedPointValueOutOfRange) {
   // A 0.01-unit quad beside a 1000-unit sphere: Q10.10 scales the scene by 1/32 (its intersection tests need
   // coordinates within an eighth of 512). The quad fits: it stores its dual edges times a power of two near its edge
   // length (they were 1 / length, 3200 after scaling). Q32.32, which still squares distances, scales by 1/128.
-  const std::string mixed = replaced(with_object(R"({"type": "sphere", "center": [0, -1000, 0], "radius": 1000, "material": "white"})"),
+  const std::string mixed = test::replaced(with_value_object(R"({"type": "sphere", "center": [0, -1000, 0], "radius": 1000, "material": "white"})"),
                                      R"("material": "white"}
   ])",
                                      R"("material": "white"},
@@ -194,7 +188,7 @@ TEST(UnrepresentableValues, FixedPointValueOutOfRange) {
   expect_accepted<Fixed<32, 32>>(mixed);
   // A per-length value still grows as the scene shrinks: the checker's 19.1 cells per unit (frequency 60 / pi)
   // become 611 after scaling by 1/32, beyond Q10.10.
-  const std::string checkered = replaced(mixed, R"("radius": 1000, "material": "white")",
+  const std::string checkered = test::replaced(mixed, R"("radius": 1000, "material": "white")",
                                          R"("radius": 1000, "material": {"type": "lambertian", "texture": {"type": "checker", "odd": [0.2, 0.3, 0.1], "even": [0.9, 0.9, 0.9], "frequency": 60}})");
   expect_refused<Fixed<10, 10>>(checkered, "60}", "/objects/1/material/texture/frequency",
                                 {"19.0986 (cells per unit length, frequency / pi), 611.155 after scaling lengths by 0.03125, does not fit q10.10"});
@@ -206,14 +200,14 @@ TEST(UnrepresentableValues, FixedPointValueOutOfRange) {
 TEST(UnrepresentableValues, CommandLineRefusesWithOneLineAndNoImage) {
   test::TempDir dir;
   const std::filesystem::path scene = dir / "scene.json";
-  const std::string text = with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})");
+  const std::string text = with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})");
   test::write_text_file(scene, text);
   const std::string render = "render " + test::quoted(scene) + " -q -o " + test::quoted(dir / "out.png");
   const test::CommandResult result = test::run_pathtracer(render, dir);
   EXPECT_EQ(result.exit_code, 1);
   const std::vector<std::string> lines = test::lines_of(result.err);
   ASSERT_EQ(lines.size(), 1u) << result.err;
-  const std::string place = place_of(text, "1e30").substr(kSource.size());
+  const std::string place = place_of(text, "1e30").substr(kValuesSource.size());
   EXPECT_EQ(lines[0], "pathtracer: error: " + scene.string() + place + "/objects/1/radius: 1e+30 " + kFloatLengths);
   EXPECT_EQ(dir.entries(), std::vector<std::string>({"scene.json"})) << "no image may be written";
   // The same scene in double renders.
