@@ -31,4 +31,10 @@ inline std::string read_model_input(const std::filesystem::path& path, std::stri
   return content;
 }
 
+// Names from a model file in messages: at most 60 characters of them, control characters escaped (warnings are
+// printed as they are; InputError escapes its message itself).
+inline std::string clip(std::string_view text) {
+  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
+}
+
 }  // namespace pt

@@ -53,11 +53,6 @@ std::string decode_name(std::string name) {
   return name;
 }
 
-// Names from the file in messages: at most 60 characters of them, control characters escaped.
-std::string clip(std::string_view text) {
-  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
-}
-
 // The lines of a text as tinyobjloader splits them (at "\n", "\r\n" or a lone "\r"), numbered from 1.
 class Lines {
  public:

@@ -107,21 +107,16 @@ struct Element {
 
 enum class Format { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
 
-bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+bool is_ply_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
-// Names from the file in messages: at most 60 characters of them, control characters escaped (warnings are
-// printed as they are; InputError escapes its message itself).
-std::string clip(std::string_view text) {
-  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
-}
 
 std::vector<std::string_view> split_words(std::string_view line) {
   std::vector<std::string_view> words;
   std::size_t at = 0;
   while (at < line.size()) {
-    while (at < line.size() && is_blank(line[at])) ++at;
+    while (at < line.size() && is_ply_blank(line[at])) ++at;
     const std::size_t start = at;
-    while (at < line.size() && !is_blank(line[at])) ++at;
+    while (at < line.size() && !is_ply_blank(line[at])) ++at;
     if (at > start) words.push_back(line.substr(start, at - start));
   }
   return words;
@@ -388,7 +383,7 @@ class PlyReader {
         reader_.fail_at_line(line_, fmt::format("the file ends before {} {} (the header declares {})", clip(element.name), index, element.count));
     }
     void end() {
-      while (at_ < end_ && is_blank(*at_)) ++at_;
+      while (at_ < end_ && is_ply_blank(*at_)) ++at_;
       if (at_ < end_ && *at_ != '\n') fail(fmt::format("more values than the header declares for a {}", clip(element_->name)));
     }
     double real(const Property& property, Scalar type) {
@@ -419,15 +414,15 @@ class PlyReader {
 
    private:
     void skip_space() {
-      while (at_ < end_ && (is_blank(*at_) || *at_ == '\n')) {
+      while (at_ < end_ && (is_ply_blank(*at_) || *at_ == '\n')) {
         if (*at_ == '\n') ++line_;
         ++at_;
       }
     }
     std::string_view token(const Property& property) {
-      while (at_ < end_ && is_blank(*at_)) ++at_;
+      while (at_ < end_ && is_ply_blank(*at_)) ++at_;
       const char* start = at_;
-      while (at_ < end_ && !is_blank(*at_) && *at_ != '\n') ++at_;
+      while (at_ < end_ && !is_ply_blank(*at_) && *at_ != '\n') ++at_;
       if (at_ == start) fail(fmt::format("fewer values than the header declares (none for '{}')", clip(property.name)));
       return {start, static_cast<std::size_t>(at_ - start)};
     }
