@@ -11,8 +11,8 @@
 #include <memory>
 
 #include "flat/flat_scene.hpp"
-#include "scene/mesh.hpp"
 #include "loading/scene_loader.hpp"
+#include "scene/mesh.hpp"
 
 namespace {
 
@@ -58,8 +58,8 @@ int main(int argc, char** argv) {
   const pt::u32 file = pt::add_mesh_file(scene, bumpy_sphere(rings, 2 * rings), "/objects");
   for (int i = 0; i < instances; ++i) {
     pt::SceneObject object;
-    object.shape = pt::MeshSettings{file, pt::AffineTransform::scaling({1, 1, 1}).then(pt::AffineTransform::from_rigid(
-                                              pt::RigidTransform::from_euler_degrees({0, 0, 0}, {3.0 * i, 0, 0})))};
+    object.shape = pt::MeshSettings{file, pt::AffineTransform::scaling({1, 1, 1}).then(
+                                              pt::AffineTransform::from_rigid(pt::RigidTransform::from_euler_degrees({0, 0, 0}, {3.0 * i, 0, 0})))};
     object.material = pt::kMeshMaterials;
     scene.objects.push_back(object);
   }
@@ -73,11 +73,11 @@ int main(int argc, char** argv) {
   const double mesh_bytes = flat.mesh_positions.size() * sizeof(flat.mesh_positions[0]) + flat.mesh_normals.size() * sizeof(flat.mesh_normals[0]) +
                             flat.mesh_uvs.size() * sizeof(flat.mesh_uvs[0]) + flat.mesh_triangles.size() * sizeof(pt::MeshTriangle);
   const double bvh_bytes = flat.mesh_nodes.size() * sizeof(flat.mesh_nodes[0]) + flat.mesh_wide_nodes.size() * sizeof(flat.mesh_wide_nodes[0]);
-  std::printf("%zu triangles, %d instance(s): flatten %.3f s (BVH %.3f s), %.1f B/triangle vertex data + triangles, %.1f B/triangle BVH "
-              "(binary %.1f, wide %.1f), flat scene %.0f MB, peak RSS %.0f MB\n",
-              triangles, instances, seconds, flat.bvh_seconds, mesh_bytes / triangles, bvh_bytes / triangles,
-              flat.mesh_nodes.size() * sizeof(flat.mesh_nodes[0]) / static_cast<double>(triangles),
-              flat.mesh_wide_nodes.size() * sizeof(flat.mesh_wide_nodes[0]) / static_cast<double>(triangles), flat.bytes() / 1e6,
-              usage.ru_maxrss / 1024.0);
+  std::printf(
+      "%zu triangles, %d instance(s): flatten %.3f s (BVH %.3f s), %.1f B/triangle vertex data + triangles, %.1f B/triangle BVH "
+      "(binary %.1f, wide %.1f), flat scene %.0f MB, peak RSS %.0f MB\n",
+      triangles, instances, seconds, flat.bvh_seconds, mesh_bytes / triangles, bvh_bytes / triangles,
+      flat.mesh_nodes.size() * sizeof(flat.mesh_nodes[0]) / static_cast<double>(triangles),
+      flat.mesh_wide_nodes.size() * sizeof(flat.mesh_wide_nodes[0]) / static_cast<double>(triangles), flat.bytes() / 1e6, usage.ru_maxrss / 1024.0);
   return 0;
 }

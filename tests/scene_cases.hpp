@@ -57,14 +57,9 @@ inline constexpr u32 kSampleDivisor = 1;
 // loss (most of it is in direct light) and halve the cost.
 inline const std::vector<SceneCase>& scene_cases() {
   static const std::vector<SceneCase> cases = {
-      {"tiny", 64, 48, 256, 0, 0, 0},
-      {"meshes", 80, 48, 128, 0, 0, 0},
-      {"seed-default", 80, 48, 128, 0, 0, 0},
-      {"book1-final", 96, 64, 128, 0, 0, 0},
-      {"book2-final", 64, 64, 128, 0, 0, 0},
-      {"cornell-box", 64, 64, 2048, 5, 512, 512},
-      {"cornell-smoke", 64, 64, 128, 0, 0, 0},
-      {"precision", 128, 96, 128, 0, 128, 0},
+      {"tiny", 64, 48, 256, 0, 0, 0},          {"meshes", 80, 48, 128, 0, 0, 0},       {"seed-default", 80, 48, 128, 0, 0, 0},
+      {"book1-final", 96, 64, 128, 0, 0, 0},   {"book2-final", 64, 64, 128, 0, 0, 0},  {"cornell-box", 64, 64, 2048, 5, 512, 512},
+      {"cornell-smoke", 64, 64, 128, 0, 0, 0}, {"precision", 128, 96, 128, 0, 128, 0},
   };
   return cases;
 }
@@ -99,17 +94,15 @@ PixelStatistics statistics_on(const std::string& backend_name, const FlatScene<T
 }
 
 // Compares two renders block by block and fails, listing the worst blocks, when any is outside the bound.
-inline void expect_blocks_agree(const PixelStatistics& a, const PixelStatistics& b, const char* name_a, const char* name_b,
-                         const std::string& what) {
+inline void expect_blocks_agree(const PixelStatistics& a, const PixelStatistics& b, const char* name_a, const char* name_b, const std::string& what) {
   const std::vector<BlockDifference> blocks = compare_block_means(a, b, kBlock, kK, kAbsoluteFloor, kRelativeFloor);
   std::size_t outside = 0;
   for (const BlockDifference& d : blocks) outside += !d.within;
-  EXPECT_EQ(outside, 0u) << what << ": " << outside << " of " << blocks.size() << " block means differ by more than " << kK
-                         << " sigma; the worst:\n"
+  EXPECT_EQ(outside, 0u) << what << ": " << outside << " of " << blocks.size() << " block means differ by more than " << kK << " sigma; the worst:\n"
                          << describe_blocks(blocks, 8, name_a, name_b);
   std::printf("%s: worst block z %.2f (%s %.5g, %s %.5g at (%u, %u) %c), %zu of %zu outside\n", what.c_str(), blocks.front().z, name_a,
-              blocks.front().mean_a, name_b, blocks.front().mean_b, blocks.front().x, blocks.front().y, "RGB"[blocks.front().channel],
-              outside, blocks.size());
+              blocks.front().mean_a, name_b, blocks.front().mean_b, blocks.front().x, blocks.front().y, "RGB"[blocks.front().channel], outside,
+              blocks.size());
 }
 
 }  // namespace pt::test

@@ -64,8 +64,8 @@ void expect_parity_with_cpu(const std::string& backend, const std::string& scene
   EXPECT_LE(same.rmse, 0.25 * independent.rmse) << "same-seed CPU and " << backend << " images should share nearly all samples";
   EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3));
   EXPECT_GE(same.close_fraction, 0.90);
-  std::printf("%s: rmse cpu-%s %.3g vs cpu-cpu(other seed) %.3g, means %.6f / %.6f, channels within 1e-3: %.1f%%\n",
-              scene_name.c_str(), backend.c_str(), same.rmse, independent.rmse, same.mean_a, same.mean_b, 100 * same.close_fraction);
+  std::printf("%s: rmse cpu-%s %.3g vs cpu-cpu(other seed) %.3g, means %.6f / %.6f, channels within 1e-3: %.1f%%\n", scene_name.c_str(),
+              backend.c_str(), same.rmse, independent.rmse, same.mean_a, same.mean_b, 100 * same.close_fraction);
 }
 
 class BackendParity : public ::testing::TestWithParam<std::string> {};
@@ -92,8 +92,8 @@ TEST_P(BackendParity, SyclImageMatchesCpuImageForTheSameSeed) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, BackendParity,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment",
-                                           "normal-maps"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke",
+                                           "environment", "normal-maps"),
                          test::scene_test_name);
 INSTANTIATE_TEST_SUITE_P(RealModels, BackendParity, ::testing::Values("engine_glb", "box_textured_gltf", "spider_obj", "wuson_ply"),
                          test::scene_test_name);

@@ -2,15 +2,15 @@
 //
 // Scene texts go through the parser; a few cases also through the command-line program.
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
 #include <functional>
-#include <limits>
 #include <future>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -61,9 +61,9 @@ std::string parse_error(const std::string& text) {
 struct BadScene {
   std::string name;
   std::string text;
-  std::string pointer;  // the JSON path the message names; "" for syntax errors
-  std::string message;  // a part of the message
-  std::string at;       // a unique part of the text; '^' marks where line:column must point (else its first character)
+  std::string pointer;      // the JSON path the message names; "" for syntax errors
+  std::string message;      // a part of the message
+  std::string at;           // a unique part of the text; '^' marks where line:column must point (else its first character)
   std::string absent = "";  // a text the message must not contain
 };
 
@@ -82,29 +82,32 @@ std::vector<BadScene> bad_scenes() {
       {"Comment", with("\"objects\": [", "\"objects\": [ // the objects\n"), "", "invalid JSON", "^// the"},
       {"Truncated", kBase.substr(0, kBase.find("\"camera\"") + 12), "", "invalid JSON", "\"camera\": {\"^"},
       // Mesh objects: the model file, its transform and material.
-      {"MissingModelFile", with_object(R"({"type": "mesh", "file": "models/missing.ply"})"), "/objects/1/file", "missing.ply: cannot open the PLY file",
-       R"("file": ^"models/missing.ply")"},
+      {"MissingModelFile", with_object(R"({"type": "mesh", "file": "models/missing.ply"})"), "/objects/1/file",
+       "missing.ply: cannot open the PLY file", R"("file": ^"models/missing.ply")"},
       {"MissingNormalMap",
-       with_object(R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_map": "textures/absent-normals.png"}})"),
+       with_object(
+           R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_map": "textures/absent-normals.png"}})"),
        "/objects/1/material/normal_map", "absent-normals.png' does not exist", R"("normal_map": ^"textures/absent-normals.png")"},
       {"NormalMapThatIsNotAnImage",
-       with_object(R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_map": "models/knot.ply"}})"),
+       with_object(
+           R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_map": "models/knot.ply"}})"),
        "/objects/1/material/normal_map", "cannot read image file", R"("normal_map": ^"models/knot.ply")"},
       {"NormalScaleWithoutNormalMap",
-       with_object(R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_scale": 2}})"),
+       with_object(
+           R"({"type": "quad", "corner": [-2, -2, -1], "u": [4, 0, 0], "v": [0, 4, 0], "material": {"type": "metallic_roughness", "base_color": [0.5, 0.5, 0.5], "normal_scale": 2}})"),
        "/objects/1/material/normal_scale", "'normal_scale' needs a 'normal_map'", R"("normal_scale": ^2)"},
       {"ModelFileOfUnknownType", with_object(R"({"type": "mesh", "file": "textures/planet-1024x512.png"})"), "/objects/1/file",
        "unknown model file type '.png'", R"("file": ^"textures/planet)"},
-      {"MeshScaledByZero", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scale": [1, 0, 1]}})"), "/objects/1/transform/scale",
-       "a scale factor must not be zero", R"("scale": ^[1, 0, 1])"},
-      {"MeshTransformKeyMisspelt", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scael": 2}})"), "/objects/1/transform/scael",
-       "did you mean 'scale'?", R"("scael": ^2)"},
+      {"MeshScaledByZero", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scale": [1, 0, 1]}})"),
+       "/objects/1/transform/scale", "a scale factor must not be zero", R"("scale": ^[1, 0, 1])"},
+      {"MeshTransformKeyMisspelt", with_object(R"({"type": "mesh", "file": "models/knot.ply", "transform": {"scael": 2}})"),
+       "/objects/1/transform/scael", "did you mean 'scale'?", R"("scael": ^2)"},
       {"MeshWithIsotropicMaterial",
        with_object(R"({"type": "mesh", "file": "models/knot.ply", "material": {"type": "isotropic", "albedo": [0.5, 0.5, 0.5]}})"),
        "/objects/1/material", "an isotropic material only belongs to a medium", R"("material": ^{"type": "isotropic")"},
       // Unknown and misspelt keys.
-      {"MisspeltObjectKey", with_object(sphere + R"("radus": 1, "material": "white"})"), "/objects/1/radus", "unknown key 'radus' (did you mean 'radius'?)",
-       R"("radus": ^1)"},
+      {"MisspeltObjectKey", with_object(sphere + R"("radus": 1, "material": "white"})"), "/objects/1/radus",
+       "unknown key 'radus' (did you mean 'radius'?)", R"("radus": ^1)"},
       {"MisspeltTopLevelKey", with("\"materials\":", "\"materails\":"), "/materails", "unknown key 'materails' (did you mean 'materials'?)",
        R"("materails": ^{)"},
       {"MisspeltRenderKey", with("\"samples_per_pixel\"", "\"sample_per_pixel\""), "/render/sample_per_pixel", "did you mean 'samples_per_pixel'?",
@@ -120,9 +123,8 @@ std::vector<BadScene> bad_scenes() {
        R"("radius": ^true)"},
       {"CentreHasTwoComponents", with_object(R"({"type": "sphere", "center": [2, 0], "radius": 1, "material": "white"})"), "/objects/1/center",
        "expected 3 elements, found 2", R"("center": ^[2, 0])"},
-      {"ColourComponentIsAString",
-       with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [0.5, "x", 0.5]}})"), "/objects/1/material/albedo/1",
-       "expected a number, found a string", R"(^"x")"},
+      {"ColourComponentIsAString", with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [0.5, "x", 0.5]}})"),
+       "/objects/1/material/albedo/1", "expected a number, found a string", R"(^"x")"},
       {"WidthIsFractional", with("\"width\": 8", "\"width\": 8.5"), "/render/width", "expected an integer, found a fractional number", "^8.5"},
       // An integer too large for 64 bits reaches the reader as a double: it is out of range, not fractional.
       {"IntegerBeyond64BitsIsOutOfRange", with("\"width\": 8", "\"width\": 18446744073709551616"), "/render/width",
@@ -138,23 +140,27 @@ std::vector<BadScene> bad_scenes() {
       {"MaterialIsANumber", with_object(sphere + R"("radius": 1, "material": 3})"), "/objects/1/material",
        "expected a material name or a material object, found a number", R"("material": ^3)"},
       // Missing required fields.
-      {"MissingCamera", test::replaced(with_object(kValidObject), R"(  "camera": {"look_from": [0, 0, 3], "look_at": [0, 0, 0], "vertical_fov": 40},
+      {"MissingCamera",
+       test::replaced(with_object(kValidObject), R"(  "camera": {"look_from": [0, 0, 3], "look_at": [0, 0, 0], "vertical_fov": 40},
 )",
-                                 ""),
+                      ""),
        "(top level)", "missing required key 'camera'", "^{\n  \"render\""},
       {"MissingRadius", with_object(R"({"type": "sphere", "center": [2, 0, 0], "material": "white"})"), "/objects/1", "missing required key 'radius'",
        R"(^{"type": "sphere", "center": [2, 0, 0], "material")"},
       {"MissingObjectType", with_object(R"({"center": [2, 0, 0], "radius": 1, "material": "white"})"), "/objects/1", "missing required key 'type'",
        R"(^{"center": [2)"},
-      {"MissingMaterial", with_object(sphere + R"("radius": 1})"), "/objects/1", "missing required key 'material'", R"(^{"type": "sphere", "center": [2)"},
+      {"MissingMaterial", with_object(sphere + R"("radius": 1})"), "/objects/1", "missing required key 'material'",
+       R"(^{"type": "sphere", "center": [2)"},
       {"MissingFieldOfView", with(R"(, "vertical_fov": 40)", ""), "/camera", "missing required key 'vertical_fov'", R"("camera": ^{)"},
-      {"NoObjects", test::replaced(test::replaced(kBase, "    OBJECT\n", ""), R"(    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
+      {"NoObjects",
+       test::replaced(test::replaced(kBase, "    OBJECT\n", ""), R"(    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "white"},
 )",
-                             ""),
+                      ""),
        "/objects", "expected between 1 and", R"("objects": ^[)"},
       // Out-of-range and meaningless values.
       {"NegativeRadius", with_object(sphere + R"("radius": -1, "material": "white"})"), "/objects/1/radius", "must be positive, found -1", "^-1,"},
-      {"ZeroRadius", with_object(sphere + R"("radius": 0, "material": "white"})"), "/objects/1/radius", "must be positive, found 0", R"("radius": ^0)"},
+      {"ZeroRadius", with_object(sphere + R"("radius": 0, "material": "white"})"), "/objects/1/radius", "must be positive, found 0",
+       R"("radius": ^0)"},
       {"ZeroWidth", with("\"width\": 8", "\"width\": 0"), "/render/width", "0 is outside the allowed range [1, 16384]", R"("width": ^0)"},
       {"WidthAboveLimit", with("\"width\": 8", "\"width\": 100000"), "/render/width", "100000 is outside the allowed range", "^100000"},
       {"TooManyPixels", with(R"("width": 8, "height": 6)", R"("width": 16384, "height": 16384)"), "/render", "16384x16384 pixels is too large",
@@ -168,32 +174,35 @@ std::vector<BadScene> bad_scenes() {
       {"RetiredTmin", with("\"max_depth\": 4", "\"max_depth\": 4, \"t_min\": 0.001"), "/render/t_min", "t_min is no longer a setting", "^0.001"},
       {"NegativeDensity", with_object(medium + R"("density": -1, "material": {"type": "isotropic", "albedo": [1, 1, 1]}})"), "/objects/1/density",
        "must be positive, found -1", R"("density": ^-1)"},
-      {"NegativeColourComponent",
-       with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [-0.5, 0.5, 0.5]}})"), "/objects/1/material/albedo",
-       "colour components must not be negative", "^[-0.5"},
+      {"NegativeColourComponent", with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [-0.5, 0.5, 0.5]}})"),
+       "/objects/1/material/albedo", "colour components must not be negative", "^[-0.5"},
       {"FieldOfView180", with("\"vertical_fov\": 40", "\"vertical_fov\": 180"), "/camera/vertical_fov", "strictly between 0 and 180", "^180"},
       {"FuzzAboveOne", with_object(sphere + R"("radius": 1, "material": {"type": "metal", "albedo": [1, 1, 1], "fuzz": 1.5}})"),
        "/objects/1/material/fuzz", "outside the allowed range [0, 1]", "^1.5"},
-      {"MetallicAboveOne", with_object(sphere + R"("radius": 1, "material": {"type": "metallic_roughness", "base_color": [1, 1, 1], "metallic": 2}})"),
+      {"MetallicAboveOne",
+       with_object(sphere + R"("radius": 1, "material": {"type": "metallic_roughness", "base_color": [1, 1, 1], "metallic": 2}})"),
        "/objects/1/material/metallic", "outside the allowed range [0, 1]", R"("metallic": ^2)"},
       {"MetallicRoughnessMapNotAnImage",
-       with_object(sphere + R"("radius": 1, "material": {"type": "metallic_roughness", "base_color": [1, 1, 1], "metallic_roughness_texture": "grid"}})"),
+       with_object(sphere +
+                   R"("radius": 1, "material": {"type": "metallic_roughness", "base_color": [1, 1, 1], "metallic_roughness_texture": "grid"}})"),
        "/objects/1/material/metallic_roughness_texture", "a metallic-roughness texture must be an image", R"("metallic_roughness_texture": ^"grid")"},
       {"ZeroIndexOfRefraction", with_object(sphere + R"("radius": 1, "material": {"type": "dielectric", "ior": 0}})"), "/objects/1/material/ior",
        "must be positive", R"("ior": ^0)"},
       {"DegenerateTriangle", with_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2]], "material": "white"})"),
        "/objects/1/vertices", "degenerate", R"("vertices": ^[[)"},
-      {"ParallelQuadEdges", with_object(R"({"type": "quad", "corner": [0, 0, 0], "u": [1, 0, 0], "v": [2, 0, 0], "material": "white"})"), "/objects/1/v",
-       "parallel or zero", R"("v": ^[2, 0, 0])"},
+      {"ParallelQuadEdges", with_object(R"({"type": "quad", "corner": [0, 0, 0], "u": [1, 0, 0], "v": [2, 0, 0], "material": "white"})"),
+       "/objects/1/v", "parallel or zero", R"("v": ^[2, 0, 0])"},
       {"InvertedBox", with_object(R"({"type": "box", "min": [0, 0, 0], "max": [1, -1, 1], "material": "white"})"), "/objects/1/max",
        "every component of max must exceed min", R"("max": ^[1, -1, 1])"},
-      {"LookAtEqualsLookFrom", with(R"("look_at": [0, 0, 0])", R"("look_at": [0, 0, 3])"), "/camera/look_at", "must differ", R"("look_at": ^[0, 0, 3])"},
+      {"LookAtEqualsLookFrom", with(R"("look_at": [0, 0, 0])", R"("look_at": [0, 0, 3])"), "/camera/look_at", "must differ",
+       R"("look_at": ^[0, 0, 3])"},
       {"UpParallelToView", with(R"("vertical_fov": 40)", R"("vertical_fov": 40, "up": [0, 0, -2])"), "/camera", "parallel to the view direction",
        R"("camera": ^{)"},
       {"ShutterClosesBeforeOpening", with(R"("vertical_fov": 40)", R"("vertical_fov": 40, "shutter": [1, 0.5])"), "/camera/shutter",
        "closes before it opens", "^[1, 0.5]"},
       {"MovingSphereTimesReversed",
-       with_object(R"({"type": "moving_sphere", "center0": [2, 0, 0], "center1": [2, 1, 0], "radius": 1, "time0": 1, "time1": 0, "material": "white"})"),
+       with_object(
+           R"({"type": "moving_sphere", "center0": [2, 0, 0], "center1": [2, 1, 0], "radius": 1, "time0": 1, "time1": 0, "material": "white"})"),
        "/objects/1/time1", "time1 must be later than time0", R"("time1": ^0)"},
       // References to things that do not exist, and misplaced materials.
       {"UnknownMaterialName", with_object(sphere + R"("radius": 1, "material": "glas"})"), "/objects/1/material", "unknown material 'glas'",
@@ -211,19 +220,25 @@ std::vector<BadScene> bad_scenes() {
        R"(^"stripes")"},
       {"UnknownBackgroundType", with(R"("objects": [)", R"("background": {"type": "gradient"}, "objects": [)"), "/background/type",
        "unknown background type 'gradient'", R"(^"gradient")"},
-      {"AlbedoAndTextureTogether", with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [1, 1, 1], "texture": "grid"}})"),
-       "/objects/1/material", "give either 'albedo' or 'texture', not both", R"(^{"type": "lambertian", "albedo": [1, 1, 1])"},
+      {"AlbedoAndTextureTogether",
+       with_object(sphere + R"("radius": 1, "material": {"type": "lambertian", "albedo": [1, 1, 1], "texture": "grid"}})"), "/objects/1/material",
+       "give either 'albedo' or 'texture', not both", R"(^{"type": "lambertian", "albedo": [1, 1, 1])"},
       {"MediumBoundaryCylinder",
        with_object(R"({"type": "medium", "boundary": {"type": "cylinder"}, "density": 1, "material": {"type": "isotropic", "albedo": [1, 1, 1]}})"),
        "/objects/1/boundary/type", "must be a sphere or a box, not 'cylinder'", R"(^"cylinder")"},
-      {"UnknownNoiseKind", with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "noise", "kind": "simplex"})"),
+      {"UnknownNoiseKind",
+       with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "noise", "kind": "simplex"})"),
        "/textures/grid/kind", "unknown noise kind 'simplex'", R"(^"simplex")"},
       // Image files (relative to the scene's folder, here scenes/).
-      {"MissingImageFile", with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": "textures/no-such-image.png"})"),
+      {"MissingImageFile",
+       with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})",
+            R"("grid": {"type": "image", "file": "textures/no-such-image.png"})"),
        "/textures/grid/file", "no-such-image.png' does not exist", R"(^"textures/no-such)"},
-      {"ImageFileIsAFolder", with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": "textures"})"),
+      {"ImageFileIsAFolder",
+       with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": "textures"})"),
        "/textures/grid/file", "cannot read image file", R"("file": ^"textures")"},
-      {"EmptyImageFileName", with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": ""})"),
+      {"EmptyImageFileName",
+       with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": ""})"),
        "/textures/grid/file", "the image file name is empty", R"("file": ^"")"},
       // Environment images (background); bad texels and files that are not images are tested below with files of their own.
       {"MissingEnvironmentImage", environment(R"("file": "textures/no-such-sky.exr")"), "/background/file", "no-such-sky.exr' does not exist",
@@ -231,7 +246,8 @@ std::vector<BadScene> bad_scenes() {
       {"EnvironmentImageIsAFolder", environment(R"("file": "textures")"), "/background/file", "cannot read image file", R"("file": ^"textures")"},
       {"EnvironmentImageUnreadable", environment(R"("file": "README.md")"), "/background/file", "cannot read image file", R"(^"README.md")"},
       {"EnvironmentWithoutFile", environment(R"("strength": 2)"), "/background", "missing required key 'file'", R"(^{"type": "environment")"},
-      {"EnvironmentFileNotAString", environment(R"("file": ["sky.exr"])"), "/background/file", "expected a string, found an array", R"(^["sky.exr"])"},
+      {"EnvironmentFileNotAString", environment(R"("file": ["sky.exr"])"), "/background/file", "expected a string, found an array",
+       R"(^["sky.exr"])"},
       {"EnvironmentEmptyFileName", environment(R"("file": "")"), "/background/file", "the image file name is empty", R"("file": ^"")"},
       {"EnvironmentNegativeStrength", environment(R"("file": "textures/sky-256x128.exr", "strength": -1)"), "/background/strength",
        "-1 is outside the allowed range", R"("strength": ^-1)"},
@@ -303,7 +319,8 @@ TEST(NumberOverflow, LiteralBeyondDoubleRangeIsAnInputErrorNamingFileLineColumnA
   // JSON has no NaN or infinity; 1e999 overflows a double and must not become an infinite radius. The parser stops
   // at the number, so the message points at it like any other bad value.
   for (const char* literal : {"1e999", "-1e999"}) {
-    const std::string text = with_object(std::string(R"({"type": "sphere", "center": [2, 0, 0], "radius": )") + literal + R"(, "material": "white"})");
+    const std::string text =
+        with_object(std::string(R"({"type": "sphere", "center": [2, 0, 0], "radius": )") + literal + R"(, "material": "white"})");
     try {
       test::parse(text, kSource);
       FAIL() << "accepted " << literal;
@@ -324,8 +341,7 @@ TEST(JsonPointerEscaping, KeysWithSlashAreEscapedAndPositioned) {
                                 R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]}, "a/b": {"type": "dielectric", "ior": -1})");
   const std::string message = parse_error(text);
   const TextPosition at = position_of(text, R"("ior": ^-1)");
-  EXPECT_EQ(message.rfind(kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": /materials/a~1b/ior: ", 0), 0u)
-      << message;
+  EXPECT_EQ(message.rfind(kSource + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": /materials/a~1b/ior: ", 0), 0u) << message;
 }
 
 // The parser's cost is bounded by its input: nesting beyond the limit is refused where it starts, before anything
@@ -353,7 +369,8 @@ TEST(ParserBounds, AnEntryWithTooManyValuesIsRefusedWhereTheLimitIsPassed) {
   const std::string text = with_object(R"({"type": "sphere", "center": [)" + numbers + R"(], "radius": 1, "material": "white"})");
   const std::string message = parse_error(text);
   EXPECT_EQ(message.rfind(kSource + ":8:", 0), 0u) << message.substr(0, 200);
-  EXPECT_NE(message.find("/objects/1/center/99997: more than 100000 JSON values in one entry of a list"), std::string::npos) << message.substr(0, 200);
+  EXPECT_NE(message.find("/objects/1/center/99997: more than 100000 JSON values in one entry of a list"), std::string::npos)
+      << message.substr(0, 200);
 }
 
 TEST(ParserBounds, ErrorsInLaterListEntriesAreLocatedAsBefore) {
@@ -379,8 +396,7 @@ TEST(MessagesAreOneLine, ControlCharactersFromTheSceneAreEscaped) {
   for (const auto& [text, expected] : cases) {
     const std::string message = parse_error(text);
     EXPECT_NE(message.find(expected), std::string::npos) << message;
-    EXPECT_TRUE(std::none_of(message.begin(), message.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; }))
-        << message;
+    EXPECT_TRUE(std::none_of(message.begin(), message.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; })) << message;
     EXPECT_EQ(message.find("\xc2\x9b"), std::string::npos) << message;
   }
 }
@@ -537,7 +553,7 @@ void write_png_header(const std::filesystem::path& path, u32 width, u32 height) 
   big_endian(width);
   big_endian(height);
   bytes += std::string("\x08\x02\x00\x00\x00", 5);  // 8 bits, RGB, deflate, no filter variant, no interlace
-  big_endian(0);                                        // CRC
+  big_endian(0);                                    // CRC
   test::write_text_file(path, bytes);
 }
 
@@ -568,7 +584,7 @@ TEST(SceneFileErrors, JpegHuffmanTableOfMoreThan256CodesIsRefused) {
   const unsigned length = 2 + 17 + 512;
   bytes += static_cast<char>(length >> 8);
   bytes += static_cast<char>(length & 0xff);
-  bytes += '\0';                // DC table 0
+  bytes += '\0';                 // DC table 0
   bytes += std::string(16, 32);  // 32 codes of each length from 1 to 16
   bytes += std::string(512, '\0');
   bytes += "\xff\xd9";
@@ -716,8 +732,8 @@ TEST_F(CommandLineErrors, VerboseRenderReportsEveryPhase) {
   // -q silences the summary but not the phases asked for with -v.
   const test::CommandResult result = render(scene_, "-v -o " + test::quoted(dir_ / "out.png"));
   EXPECT_EQ(result.exit_code, 0) << result.err;
-  for (const char* phase : {"scene load", "flatten (BVH included)", "of which BVH build", "device start", "upload", "render",
-                            "read-back", "resolve", "encode and write", "total (from the start)"})
+  for (const char* phase : {"scene load", "flatten (BVH included)", "of which BVH build", "device start", "upload", "render", "read-back", "resolve",
+                            "encode and write", "total (from the start)"})
     EXPECT_NE(result.err.find(phase), std::string::npos) << phase << " missing from:\n" << result.err;
   EXPECT_TRUE(std::filesystem::is_regular_file(dir_ / "out.png"));
 }
@@ -746,8 +762,8 @@ TEST_F(CommandLineErrors, EndlessDeviceAsSceneIsRefusedAtOnce) {
   // (no memory limit under AddressSanitizer, which reserves terabytes of address space).
   const std::filesystem::path err = dir_ / "stderr.txt";
   const std::string limit = PT_TEST_SANITIZED ? "" : "ulimit -v 4000000; ";
-  const std::string command = limit + "timeout 20 '" + test::pathtracer_binary() + "' render /dev/zero -q -o " +
-                              test::quoted(dir_ / "out.png") + " > /dev/null 2> " + test::quoted(err);
+  const std::string command = limit + "timeout 20 '" + test::pathtracer_binary() + "' render /dev/zero -q -o " + test::quoted(dir_ / "out.png") +
+                              " > /dev/null 2> " + test::quoted(err);
   const int status = std::system(command.c_str());
   const std::string message = test::read_text_file(err);
   std::filesystem::remove(err);
@@ -772,8 +788,8 @@ TEST_F(CommandLineErrors, BadEnvironmentImageIsNamedWithoutOutput) {
 }
 
 TEST_F(CommandLineErrors, MissingImageIsNamed) {
-  test::write_text_file(scene_, with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})",
-                                     R"("grid": {"type": "image", "file": "absent.png"})"));
+  test::write_text_file(
+      scene_, with(R"("grid": {"type": "uv_checker", "odd": [0, 0, 0], "even": [1, 1, 1]})", R"("grid": {"type": "image", "file": "absent.png"})"));
   const test::CommandResult result = render(scene_, "-o " + test::quoted(dir_ / "out.png"));
   expect_single_error(result, scene_.string() + ":4:");
   EXPECT_NE(result.err.find("absent.png' does not exist"), std::string::npos) << result.err;
@@ -860,7 +876,8 @@ TEST_F(CommandLineErrors, AbsurdSizeOnTheCommandLine) {
 TEST_F(CommandLineErrors, SizeTooLargeWithOneSideFromTheSceneNamesTheOptionAndTheScene) {
   test::write_text_file(scene_, with(R"("width": 8, "height": 6)", R"("width": 8, "height": 5000)"));
   const test::CommandResult result = render(scene_, "--width 16384 -o " + test::quoted(dir_ / "out.png"));
-  expect_single_error(result, "pathtracer: error: --width 16384 with the scene's height 5000 (" + scene_.string() + "): 16384x5000 pixels is too large");
+  expect_single_error(result,
+                      "pathtracer: error: --width 16384 with the scene's height 5000 (" + scene_.string() + "): 16384x5000 pixels is too large");
   EXPECT_EQ(result.exit_code, 1);
 }
 

@@ -8,8 +8,8 @@
 
 #include "flat/bvh_builder.hpp"
 #include "kernel/fixed_point.hpp"
-#include "scene/mesh.hpp"
 #include "loading/scene_loader.hpp"
+#include "scene/mesh.hpp"
 #include "test_support.hpp"
 
 namespace pt {
@@ -75,9 +75,9 @@ SceneDescription random_scene(u64 seed) {
   scene.objects.push_back(object(sliver));
   // Two media: a sphere and a rotated box; thin enough that rays often pass through them.
   scene.objects.push_back(object(MediumSettings{Sphere<double>{{2, 1, -3}, 2.5}, RigidTransform{}, 0.3}, 1));
-  scene.objects.push_back(object(
-      MediumSettings{BoxSettings{{-3, -3, -3}, {3, 2, 1}}, RigidTransform::from_euler_degrees({10, 25, -5}, {0, 0, 0}), 0.2}, 1,
-      RigidTransform::from_euler_degrees({0, 0, 0}, {-4, 3, 4})));
+  scene.objects.push_back(
+      object(MediumSettings{BoxSettings{{-3, -3, -3}, {3, 2, 1}}, RigidTransform::from_euler_degrees({10, 25, -5}, {0, 0, 0}), 0.2}, 1,
+             RigidTransform::from_euler_degrees({0, 0, 0}, {-4, 3, 4})));
   // Meshes: one file placed three times (instances sharing one mesh, scaled, rotated, one mirrored), one placed once
   // (stored in world space).
   const u32 shared = add_mesh_file(scene, test::triangle_soup(rng, 400), "/objects");
@@ -147,15 +147,16 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
     for (const bool wide : {false, true}) {
       Hit<T> bvh_hit{};
       const bool bvh_found = wide ? closest_hit_wide(view, rays[i], context, bvh_hit) : closest_hit_binary(view, rays[i], context, bvh_hit);
-      if (bvh_found == brute_found && (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t &&
-                                                      bvh_hit.b1 == brute_hit.b1 && bvh_hit.b2 == brute_hit.b2 && bvh_hit.triangle == brute_hit.triangle)))
+      if (bvh_found == brute_found &&
+          (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t && bvh_hit.b1 == brute_hit.b1 &&
+                          bvh_hit.b2 == brute_hit.b2 && bvh_hit.triangle == brute_hit.triangle)))
         continue;
       same = false;
       if (result.mismatches++ == 0)
-        result.first_mismatch = "ray " + std::to_string(i) + (wide ? ": wide bvh " : ": binary bvh ") +
-                                (bvh_found ? std::to_string(bvh_hit.primitive) + " t=" + std::to_string(static_cast<double>(bvh_hit.t)) : "miss") +
-                                ", brute force " +
-                                (brute_found ? std::to_string(brute_hit.primitive) + " t=" + std::to_string(static_cast<double>(brute_hit.t)) : "miss");
+        result.first_mismatch =
+            "ray " + std::to_string(i) + (wide ? ": wide bvh " : ": binary bvh ") +
+            (bvh_found ? std::to_string(bvh_hit.primitive) + " t=" + std::to_string(static_cast<double>(bvh_hit.t)) : "miss") + ", brute force " +
+            (brute_found ? std::to_string(brute_hit.primitive) + " t=" + std::to_string(static_cast<double>(brute_hit.t)) : "miss");
     }
     if (!same) continue;
     if (brute_found) {
@@ -253,7 +254,8 @@ TEST(WideBoxTest, VectorGroupsOfFourAndEightMatchTheScalarLoop) {
   for (std::size_t r = 0; r < rays.size(); ++r) {
     const Vec3<float> inv = slab_reciprocals(rays[r]);
     const Vec3<float> origin_term = slab_origin_terms(rays[r], inv);
-    const PlaneRows rows{inv.x < 0 ? 3u : 0u, inv.y < 0 ? 4u : 1u, inv.z < 0 ? 5u : 2u, inv.x < 0 ? 0u : 3u, inv.y < 0 ? 1u : 4u, inv.z < 0 ? 2u : 5u};
+    const PlaneRows rows{inv.x < 0 ? 3u : 0u, inv.y < 0 ? 4u : 1u, inv.z < 0 ? 5u : 2u,
+                         inv.x < 0 ? 0u : 3u, inv.y < 0 ? 1u : 4u, inv.z < 0 ? 2u : 5u};
     const float closest = r % 2 ? largest<float>() : static_cast<float>(rng.uniform() * 30);
     for (std::size_t n = r % 7; n < flat.wide_nodes.size(); n += 7) {
       const WideBvhNode<float>& node = flat.wide_nodes[n];
@@ -636,8 +638,8 @@ TEST(BvhBuilder, FloatBoxesOfFloatVerticesGiveTheDoubleTree) {
   for (std::size_t i = 0; i < wide.nodes.size(); ++i) {
     const BvhNode<double>& a = wide.nodes[i];
     const BvhNode<float>& b = narrow.nodes[i];
-    ASSERT_TRUE(a.left_first == b.left_first && a.count == b.count && a.lo.x == b.lo.x && a.lo.y == b.lo.y && a.lo.z == b.lo.z &&
-                a.hi.x == b.hi.x && a.hi.y == b.hi.y && a.hi.z == b.hi.z)
+    ASSERT_TRUE(a.left_first == b.left_first && a.count == b.count && a.lo.x == b.lo.x && a.lo.y == b.lo.y && a.lo.z == b.lo.z && a.hi.x == b.hi.x &&
+                a.hi.y == b.hi.y && a.hi.z == b.hi.z)
         << "node " << i;
   }
 }

@@ -43,9 +43,9 @@ struct FailureCase {
 };
 
 // Every step of the writer, a write failing at the first byte and in the middle of the data.
-const std::vector<FailureCase> kFailures = {{FileStep::kCreate, 0, "create"}, {FileStep::kWrite, 0, "first write"},
-                                            {FileStep::kWrite, 5000, "write mid-file"}, {FileStep::kSync, 0, "fsync"},
-                                            {FileStep::kClose, 0, "close"}, {FileStep::kRename, 0, "rename"}};
+const std::vector<FailureCase> kFailures = {
+    {FileStep::kCreate, 0, "create"}, {FileStep::kWrite, 0, "first write"}, {FileStep::kWrite, 5000, "write mid-file"},
+    {FileStep::kSync, 0, "fsync"},    {FileStep::kClose, 0, "close"},       {FileStep::kRename, 0, "rename"}};
 
 TEST(CheckedImageWrites, FailureInAnyStepOfAnyFormatKeepsTheOldFileAndLeavesNoTemporary) {
   const LinearImage image = noise_image(200, 150);  // every format writes well past 5000 bytes

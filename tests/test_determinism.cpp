@@ -88,7 +88,7 @@ TEST(ImageIdenticalForEitherIntegrator, WavefrontEqualsMegakernel) {
   EXPECT_TRUE(test::same_film(megakernel, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
   const FlatScene<double> scene_double = tiny_scene<double>(2);
   EXPECT_TRUE(test::same_film(test::render_film(scene_double, 2, {2}, Integrator::kMegakernel),
-                        test::render_film(scene_double, 2, {2}, Integrator::kWavefront)));
+                              test::render_film(scene_double, 2, {2}, Integrator::kWavefront)));
 }
 
 TEST(ImageIdenticalForEitherIntegrator, WavefrontIndependentOfThreadsAndPasses) {

@@ -99,7 +99,7 @@ TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
   CountingGpuLikeDevice::Counts counts;
   const std::vector<FilmPixel> film = render_gpu_like(scene, Integrator::kWavefront, {2, 2}, counts);
   EXPECT_EQ(counts.image_launches, 0u);
-  EXPECT_GT(counts.item_launches, 4u);      // generate, intersect, escaped, shade..., accumulate
+  EXPECT_GT(counts.item_launches, 4u);             // generate, intersect, escaped, shade..., accumulate
   EXPECT_EQ(counts.timers, counts.item_launches);  // every stage timed
   EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
   EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kMegakernel)));

@@ -17,7 +17,6 @@
 namespace pt {
 namespace {
 
-
 // A small map with strong contrast: a dim sky gradient, a sun of one texel 20000 times brighter than the sky, a
 // coloured patch and a black band (where the density must be 0).
 constexpr u32 kWidth = 24, kHeight = 12;
@@ -155,7 +154,8 @@ double pdf_integral_in_map(const EnvironmentSettings& map, const Background<T>& 
   for (u32 row = 0; row < rows; ++row)
     for (u32 column = 0; column < columns; ++column) {
       const double u = (column + 0.5) / columns, v = (row + 0.5) / rows;
-      sum += static_cast<double>(background_pdf(background, test::to<T>(map_direction(map, u, v)))) * 2 * test::kPi * test::kPi * std::sin(test::kPi * v);
+      sum += static_cast<double>(background_pdf(background, test::to<T>(map_direction(map, u, v)))) * 2 * test::kPi * test::kPi *
+             std::sin(test::kPi * v);
     }
   return sum / (static_cast<double>(columns) * rows);
 }
@@ -203,8 +203,10 @@ TEST(Environment, PdfIsProportionalToEachTexelsLuminance) {
       const float* t = map.rgb.data() + 3 * (row * kWidth + column);
       const double l = luminance(t[0], t[1], t[2]);
       const double pdf = background_pdf(background, texel_centre(map, column, row));
-      if (l == 0) EXPECT_EQ(pdf, 0.0) << column << ", " << row;
-      else EXPECT_NEAR(pdf / l, factor, 1e-6 * factor) << column << ", " << row;
+      if (l == 0)
+        EXPECT_EQ(pdf, 0.0) << column << ", " << row;
+      else
+        EXPECT_NEAR(pdf / l, factor, 1e-6 * factor) << column << ", " << row;
     }
   // The sun's texel holds most of the probability.
   const double sun = background_pdf(background, texel_centre(map, kSunColumn, kSunRow));
@@ -305,7 +307,8 @@ TEST(Environment, EscapedCameraRaySeesTexelTimesStrength) {
   const Vec3d in_map{std::sin(theta) * std::sin(azimuth), std::cos(theta), -std::sin(theta) * std::cos(azimuth)};
   const Vec3d aim = RigidTransform::from_euler_degrees({0, 30, 0}, {}).apply_vector(in_map);
   const std::string text = R"({"render": {"width": 4, "height": 4, "samples_per_pixel": 4, "max_depth": 4},
-    "camera": {"look_from": [0, 0, 0], "look_at": [)" + std::to_string(aim.x) + ", " + std::to_string(aim.y) + ", " + std::to_string(aim.z) +
+    "camera": {"look_from": [0, 0, 0], "look_at": [)" +
+                           std::to_string(aim.x) + ", " + std::to_string(aim.y) + ", " + std::to_string(aim.z) +
                            R"(], "vertical_fov": 1},
     "background": {"type": "environment", "file": "map.exr", "strength": 2.5, "rotate": 30},
     "objects": [{"type": "sphere", "center": [0, -100, 0], "radius": 1, "material": {"type": "lambertian", "albedo": [1, 1, 1]}}]})";
@@ -343,7 +346,8 @@ TEST(Environment, LightSamplingEstimatesIrradiance) {
         for (int a = 0; a < 32; ++a)
           for (int b = 0; b < 32; ++b) {
             const double u = (column + (a + 0.5) / 32) / kWidth, v = (row + (b + 0.5) / 32) / kHeight;
-            integral += std::max(0.0, dot(normal, map_direction(map, u, v))) * 2 * test::kPi * test::kPi * std::sin(test::kPi * v) / (32.0 * 32 * kWidth * kHeight);
+            integral += std::max(0.0, dot(normal, map_direction(map, u, v))) * 2 * test::kPi * test::kPi * std::sin(test::kPi * v) /
+                        (32.0 * 32 * kWidth * kHeight);
           }
         exact += t[1] * integral;
       }
@@ -377,7 +381,8 @@ TEST(Environment, MeanRadianceIsTheSolidAngleWeightedTexelMean) {
   double expected = 0;
   for (u32 row = 0; row < kHeight; ++row)
     for (u32 column = 0; column < kWidth; ++column)
-      expected += 2 * sun.rgb[3 * (row * kWidth + column)] * (std::cos(test::kPi * row / kHeight) - std::cos(test::kPi * (row + 1) / kHeight)) / (2.0 * kWidth);
+      expected += 2 * sun.rgb[3 * (row * kWidth + column)] * (std::cos(test::kPi * row / kHeight) - std::cos(test::kPi * (row + 1) / kHeight)) /
+                  (2.0 * kWidth);
   EXPECT_NEAR(background_mean_radiance(scene_with<double>(sun)).x, expected, 1e-9 * expected);
 }
 
@@ -387,7 +392,7 @@ TEST(Environment, RadianceHdrAndGreyExrAreRead) {
   test::TempDir dir;
   // 4x2 texels, flat (not run-length encoded) RGBE: mantissa * 2^(exponent - 136).
   std::string hdr = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n";
-  const unsigned char texels[8][4] = {{128, 128, 128, 129}, {128, 0, 0, 128}, {192, 64, 128, 130}, {0, 0, 0, 0},
+  const unsigned char texels[8][4] = {{128, 128, 128, 129}, {128, 0, 0, 128},   {192, 64, 128, 130},  {0, 0, 0, 0},
                                       {128, 128, 128, 136}, {255, 128, 1, 129}, {128, 128, 128, 129}, {128, 128, 128, 129}};
   for (const auto& t : texels) hdr.append(reinterpret_cast<const char*>(t), 4);
   test::write_text_file(dir / "sky.pic", hdr);
@@ -435,7 +440,8 @@ TEST(Environment, ConstantMapRendersAsConstantBackground) {
     test::write_text_file(dir / "scene.json", text);
     return load_scene_file(dir / "scene.json");
   };
-  const test::PixelStatistics map = test::sample_statistics(test::flatten<float>(with_background(R"({"type": "environment", "file": "flat.exr", "strength": 2})")), 256);
+  const test::PixelStatistics map =
+      test::sample_statistics(test::flatten<float>(with_background(R"({"type": "environment", "file": "flat.exr", "strength": 2})")), 256);
   const test::PixelStatistics constant =
       test::sample_statistics(test::flatten<float>(with_background(R"({"type": "constant", "color": [1.2, 0.6, 1.8]})")), 256);
   const std::vector<test::BlockDifference> blocks = test::compare_block_means(map, constant, 8, 4.0, 1e-6, 1e-6);

@@ -14,17 +14,28 @@ template <class T>
 class FixedPointTest : public ::testing::Test {};
 
 // Every storage width (8, 16, 32 and 64 bits) and the shipped formats.
-using Formats = ::testing::Types<Fixed<32, 32>, Fixed<16, 16>, Fixed<24, 8>, Fixed<12, 12>, Fixed<10, 10>, Fixed<8, 24>, Fixed<4, 12>,
-                                 Fixed<3, 5>>;
+using Formats = ::testing::Types<Fixed<32, 32>, Fixed<16, 16>, Fixed<24, 8>, Fixed<12, 12>, Fixed<10, 10>, Fixed<8, 24>, Fixed<4, 12>, Fixed<3, 5>>;
 TYPED_TEST_SUITE(FixedPointTest, Formats);
 
 constexpr int kDraws = 20000;
 
 // Exact for every format: long double has a 64-bit significand.
-template <class T> long double exact(T x) { return static_cast<long double>(x.raw) / std::ldexp(1.0L, T::kFractionBits); }
-template <class T> long double ulp() { return std::ldexp(1.0L, -T::kFractionBits); }
-template <class T> long double max_value() { return exact(largest<T>()); }
-template <class T> T from_raw(long double raw) { return T::from_raw(static_cast<typename T::Storage>(raw)); }
+template <class T>
+long double exact(T x) {
+  return static_cast<long double>(x.raw) / std::ldexp(1.0L, T::kFractionBits);
+}
+template <class T>
+long double ulp() {
+  return std::ldexp(1.0L, -T::kFractionBits);
+}
+template <class T>
+long double max_value() {
+  return exact(largest<T>());
+}
+template <class T>
+T from_raw(long double raw) {
+  return T::from_raw(static_cast<typename T::Storage>(raw));
+}
 
 // A uniformly random code of the format, limited to magnitude `limit`.
 template <class T>

@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "backends/registry.hpp"
-#include "film/film.hpp"
 #include "base/number_formats.hpp"
+#include "film/film.hpp"
 #include "loading/scene_loader.hpp"
 
 namespace pt {

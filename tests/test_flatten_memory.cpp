@@ -12,8 +12,8 @@
 
 #include "flat/bvh_builder.hpp"
 #include "flat/flat_scene.hpp"
-#include "scene/mesh.hpp"
 #include "loading/scene_loader.hpp"
+#include "scene/mesh.hpp"
 
 namespace pt {
 namespace {

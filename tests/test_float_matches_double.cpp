@@ -53,7 +53,8 @@ TEST_P(FloatMatchesDouble, CudaBlockMeansAgreeWithCpuDoubleWithinNoise) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, FloatMatchesDouble,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "precision"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke",
+                                           "precision"),
                          test::scene_test_name);
 
 // The metallic-roughness material in every form a scene gives it: a metal, a dielectric with an image base colour,

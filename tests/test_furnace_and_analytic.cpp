@@ -9,7 +9,6 @@
 namespace pt {
 namespace {
 
-
 std::string scene_json(const std::string& render, const std::string& camera, const std::string& background, const std::string& objects) {
   return R"({"render": )" + render + R"(, "camera": )" + camera + R"(, "background": )" + background + R"(, "objects": [)" + objects + "]}";
 }
@@ -73,7 +72,8 @@ const FurnaceCase kFurnaceCases[] = {
         {"type": "sphere", "center": [0, -0.5, 0], "radius": 0.4, "material": "white"})"},
     {"IsotropicMedium",
      R"({"type": "medium", "boundary": {"type": "sphere", "center": [0, 0, 0], "radius": 1}, "density": 3, "material": {"type": "isotropic", "albedo": [1, 1, 1]}})"},
-    {"DielectricSphere", R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "dielectric", "ior": 1.5, "tint": [1, 1, 1]}})"},
+    {"DielectricSphere",
+     R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "dielectric", "ior": 1.5, "tint": [1, 1, 1]}})"},
     {"MirrorSphere", R"({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "metal", "albedo": [1, 1, 1], "fuzz": 0}})"},
     {"FogGlassAndDiffuseBox",
      R"({"type": "medium", "boundary": {"type": "box", "min": [-1.5, -1, -1], "max": [0, 1, 1]}, "density": 1, "material": {"type": "isotropic", "albedo": [1, 1, 1]}},
@@ -120,8 +120,7 @@ TEST_P(WhiteFurnace, ObjectIsInView) {
 TEST_P(WhiteFurnace, RussianRouletteKeepsTheMeanAtOne) {
   // With roulette from the first bounce, samples are 0 or 1 / q^k: noisy, but the mean must stay 1.
   const FurnaceCase& c = GetParam();
-  const SceneDescription scene =
-      test::parse(with_white_material(scene_json(furnace_render(200, 1, 32), kFrontCamera, kWhiteSky, c.objects)));
+  const SceneDescription scene = test::parse(with_white_material(scene_json(furnace_render(200, 1, 32), kFrontCamera, kWhiteSky, c.objects)));
   const test::PixelStatistics stats = test::sample_statistics(test::flatten<float>(scene), 32);
   ASSERT_EQ(stats.non_finite, 0u);
   for (int k = 0; k < 3; ++k) EXPECT_GT(stats.image_mean_standard_error(k), 0.0);  // roulette must actually have fired
@@ -132,8 +131,7 @@ TEST_P(WhiteFurnace, NextEventEstimationKeepsTheMeanAtOne) {
   // The sky is a light: shadow rays towards it and scattered rays that reach it share each path's light by multiple
   // importance sampling. Samples are no longer exactly 1, but nothing may be counted twice or lost.
   const FurnaceCase& c = GetParam();
-  const SceneDescription scene =
-      test::parse(with_white_material(scene_json(furnace_render(200, 0, 32, "nee"), kFrontCamera, kWhiteSky, c.objects)));
+  const SceneDescription scene = test::parse(with_white_material(scene_json(furnace_render(200, 0, 32, "nee"), kFrontCamera, kWhiteSky, c.objects)));
   const test::PixelStatistics stats = test::sample_statistics(test::flatten<double>(scene), 32);
   ASSERT_EQ(stats.non_finite, 0u);
   expect_mean_one(stats);
@@ -153,8 +151,9 @@ TEST(AnalyticRadiance, ConvexLambertianUnderConstantSkyIsAlbedoTimesSky) {
   const double albedo[3] = {0.3, 0.5, 0.7}, radiance[3] = {2, 1, 0.5};
   // Without light sampling, so that every sample is exactly that.
   for (int depth : {2, 3, 50}) {
-    const SceneDescription scene = test::parse(scene_json(
-        R"({"width": 32, "height": 32, "samples_per_pixel": 4, "light_sampling": "none", "max_depth": )" + std::to_string(depth) + "}", camera, sky, sphere));
+    const SceneDescription scene = test::parse(
+        scene_json(R"({"width": 32, "height": 32, "samples_per_pixel": 4, "light_sampling": "none", "max_depth": )" + std::to_string(depth) + "}",
+                   camera, sky, sphere));
     const LinearImage image = test::render(test::flatten<float>(scene), 2).image;
     // The central 8x8 pixels see only the sphere (it spans about +-11.5 degrees of the 30-degree view).
     for (u32 y = 12; y < 20; ++y)
@@ -226,10 +225,11 @@ TEST(AnalyticRadiance, BackgroundSeenThroughPinholeMatchesSkyFormulaPerPixel) {
   const Vec3d look_at{0, std::sin(elevation), -std::cos(elevation)};
   const u32 width = 33, height = 25;
   const std::string render = R"({"width": 33, "height": 25, "samples_per_pixel": 64, "max_depth": 4})";
-  const std::string camera = R"({"look_from": [0, 0, 0], "look_at": [0, )" + std::to_string(look_at.y) + ", " + std::to_string(look_at.z) +
-                             R"(], "vertical_fov": 50})";
+  const std::string camera =
+      R"({"look_from": [0, 0, 0], "look_at": [0, )" + std::to_string(look_at.y) + ", " + std::to_string(look_at.z) + R"(], "vertical_fov": 50})";
   const std::string sky_json = R"({"type": "sky", "horizon": [1, 0.9, 0.8], "zenith": [0.1, 0.3, 0.9]})";
-  const std::string behind = R"({"type": "sphere", "center": [0, 0, 50], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}})";
+  const std::string behind =
+      R"({"type": "sphere", "center": [0, 0, 50], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}})";
   const SceneDescription scene = test::parse(scene_json(render, camera, sky_json, behind));
   const test::PixelStatistics stats = test::sample_statistics(test::flatten<double>(scene), 64);
   const Vec3d w = normalize(Vec3d{0, 0, 0} - normalize(look_at)), u = normalize(cross(Vec3d{0, 1, 0}, w)), v = cross(w, u);
@@ -252,7 +252,8 @@ TEST(AnalyticRadiance, BackgroundSeenThroughPinholeMatchesSkyFormulaPerPixel) {
 
 TEST(AnalyticRadiance, CentrePixelsLookingAtHorizonAndZenith) {
   const std::string sky_json = R"({"type": "sky", "horizon": [1, 0.9, 0.8], "zenith": [0.1, 0.3, 0.9]})";
-  const std::string behind = R"({"type": "sphere", "center": [0, -50, 50], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}})";
+  const std::string behind =
+      R"({"type": "sphere", "center": [0, -50, 50], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}})";
   const std::string render = R"({"width": 9, "height": 9, "samples_per_pixel": 256, "max_depth": 4})";
   const double horizon[3] = {1, 0.9, 0.8}, zenith[3] = {0.1, 0.3, 0.9};
   const std::size_t centre = 3 * (4 * 9 + 4);

@@ -40,8 +40,8 @@ using json = nlohmann::json;
 
 const fs::path kAssets = "/usr/share/assimp/models/glTF2";
 
-#define REQUIRE_ASSETS()                                                                                   \
-  do {                                                                                                     \
+#define REQUIRE_ASSETS()                                                                                  \
+  do {                                                                                                    \
     if (!fs::is_directory(kAssets)) GTEST_SKIP() << kAssets << " is absent (Debian's assimp-testmodels)"; \
   } while (false)
 
@@ -336,8 +336,9 @@ TEST(GltfBrokenFiles, WrongTypes) {
   REQUIRE_ASSETS();
   const fs::path dir = kAssets / "wrongTypes";
   expect_refused(dir / "badArray.gltf", {"badArray.gltf: /meshes/0/primitives: expected an array, found an object"});
-  expect_refused(dir / "badExtension.gltf",
-                 {"badExtension.gltf: /materials/0/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform: expected an object, found a string"});
+  expect_refused(
+      dir / "badExtension.gltf",
+      {"badExtension.gltf: /materials/0/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform: expected an object, found a string"});
   // Its normalTexture has no index (and a scale that is not a number).
   expect_refused(dir / "badNumber.gltf", {"badNumber.gltf: /materials/0/normalTexture: 'index' is missing"});
   expect_refused(dir / "badObject.gltf", {"badObject.gltf: /materials/0/pbrMetallicRoughness: expected an object, found an array"});
@@ -416,8 +417,8 @@ TEST(GltfWrittenFiles, TriangleStripAndFanBecomeTriangles) {
   Document d;
   const int p = d.vec3({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 2, 0});
   const int strip = d.indices({0, 1, 2, 3, 4});
-  d.doc["meshes"] = json::array(
-      {{{"primitives", json::array({{{"attributes", {{"POSITION", p}}}, {"indices", strip}, {"mode", 5}}, {{"attributes", {{"POSITION", p}}}, {"mode", 6}}})}}});
+  d.doc["meshes"] = json::array({{{"primitives", json::array({{{"attributes", {{"POSITION", p}}}, {"indices", strip}, {"mode", 5}},
+                                                              {{"attributes", {{"POSITION", p}}}, {"mode", 6}}})}}});
   d.doc["nodes"] = json::array({{{"mesh", 0}}});
   const MeshFile file = read_gltf_file(d.write(dir, "strip.gltf"));
   expect_consistent(file);
@@ -434,8 +435,9 @@ TEST(GltfWrittenFiles, HugeAccessorCountInATinyFileIsRefusedBeforeAnythingIsRead
   Document d = one_triangle();
   d.doc["accessors"][0]["count"] = 1000000000000ull;
   d.doc["nodes"] = json::array({{{"mesh", 0}}});
-  expect_refused(d.write(dir, "huge.gltf"),
-                 {"huge.gltf: /accessors/0: its 1000000000000 elements of 12 bytes (from byte 0, 12 bytes apart) need more than the 36 bytes of buffer view 0"});
+  expect_refused(
+      d.write(dir, "huge.gltf"),
+      {"huge.gltf: /accessors/0: its 1000000000000 elements of 12 bytes (from byte 0, 12 bytes apart) need more than the 36 bytes of buffer view 0"});
   // The same with the buffer in a file beside the model, and a buffer claiming more than its file holds.
   Document e = one_triangle();
   e.doc["nodes"] = json::array({{{"mesh", 0}}});
@@ -473,9 +475,12 @@ TEST(GltfWrittenFiles, TextureCoordinatesOfFloatsAndNormalizedIntegers) {
     Document d = one_triangle();
     // (0, 0), (1, 0), (0, 1) in glTF's convention (v down the image), stored v up.
     std::string data;
-    if (component_type == 5126) data = bytes_of(std::vector<float>{0, 0, 1, 0, 0, 1});
-    else if (component_type == 5121) data = bytes_of(std::vector<u8>{0, 0, 255, 0, 0, 255});
-    else data = bytes_of(std::vector<std::uint16_t>{0, 0, 65535, 0, 0, 65535});
+    if (component_type == 5126)
+      data = bytes_of(std::vector<float>{0, 0, 1, 0, 0, 1});
+    else if (component_type == 5121)
+      data = bytes_of(std::vector<u8>{0, 0, 255, 0, 0, 255});
+    else
+      data = bytes_of(std::vector<std::uint16_t>{0, 0, 65535, 0, 0, 65535});
     const int uv = d.accessor(d.view(data), component_type, 3, "VEC2", component_type != 5126);
     d.doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = uv;
     d.doc["meshes"][0]["primitives"][0]["material"] = 0;
@@ -503,8 +508,9 @@ TEST(GltfWrittenFiles, TextureCoordinatesOfFloatsAndNormalizedIntegers) {
   d.doc["textures"] = json::array({{{"source", 0}}});
   d.doc["images"] = json::array({{{"uri", "texture.png"}}});
   d.doc["nodes"] = json::array({{{"mesh", 0}}});
-  expect_refused(d.write(dir, "bytes.gltf"), {"bytes.gltf: /meshes/0/primitives/0/attributes/TEXCOORD_0: TEXCOORD_0 needs a VEC2 accessor of floats or "
-                                              "unsigned bytes or unsigned shorts (integers normalized); accessor 1 is VEC2 of unsigned bytes"});
+  expect_refused(d.write(dir, "bytes.gltf"),
+                 {"bytes.gltf: /meshes/0/primitives/0/attributes/TEXCOORD_0: TEXCOORD_0 needs a VEC2 accessor of floats or "
+                  "unsigned bytes or unsigned shorts (integers normalized); accessor 1 is VEC2 of unsigned bytes"});
 }
 
 TEST(GltfWrittenFiles, MaterialFactorsEmissiveStrengthAndDefaultMaterial) {
@@ -517,7 +523,8 @@ TEST(GltfWrittenFiles, MaterialFactorsEmissiveStrengthAndDefaultMaterial) {
                                                               {{"attributes", {{"POSITION", p}}}, {"material", 0}}})}}});
   d.doc["materials"] = json::array(
       {{{"name", "glow"}, {"emissiveFactor", {1, 0.5, 0.25}}, {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4}}}}}},
-       {{"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 0.5}}, {"metallicFactor", 0.25}, {"roughnessFactor", 0.75}}}, {"alphaMode", "BLEND"}},
+       {{"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 0.5}}, {"metallicFactor", 0.25}, {"roughnessFactor", 0.75}}},
+        {"alphaMode", "BLEND"}},
        {{"name", "unused"}}});
   d.doc["extensionsUsed"] = {"KHR_materials_emissive_strength"};
   d.doc["extensionsRequired"] = {"KHR_materials_emissive_strength"};
@@ -571,8 +578,8 @@ TEST(GltfWrittenFiles, PrimitiveWithoutNormalsBesideOneWithGetsFlatNormals) {
   const int p = d.vec3({0, 0, 0, 1, 0, 0, 0, 1, 0});
   const int n = d.vec3({0, 0, 1, 0, 0, 1, 0, 0, 1});
   const int q = d.vec3({0, 0, 0, 0, 1, 0, 1, 0, 0});  // facing -z
-  d.doc["meshes"] = json::array(
-      {{{"primitives", json::array({{{"attributes", {{"POSITION", p}, {"NORMAL", n}}}}, {{"attributes", {{"POSITION", q}}}}})}}});
+  d.doc["meshes"] =
+      json::array({{{"primitives", json::array({{{"attributes", {{"POSITION", p}, {"NORMAL", n}}}}, {{"attributes", {{"POSITION", q}}}}})}}});
   d.doc["nodes"] = json::array({{{"mesh", 0}}});
   const MeshFile file = read_gltf_file(d.write(dir, "flat.gltf"));
   expect_consistent(file);
@@ -660,11 +667,10 @@ TEST(GltfWrittenFiles, UnsupportedThingsAreRefusedWithTheirPath) {
   test::TempDir dir;
   {
     Document d = one_triangle();
-    d.doc["accessors"][0]["sparse"] = {{"count", 1},
-                                       {"indices", {{"bufferView", 0}, {"componentType", 5121}}},
-                                       {"values", {{"bufferView", 0}}}};
+    d.doc["accessors"][0]["sparse"] = {{"count", 1}, {"indices", {{"bufferView", 0}, {"componentType", 5121}}}, {"values", {{"bufferView", 0}}}};
     d.doc["nodes"] = json::array({{{"mesh", 0}}});
-    expect_refused(d.write(dir, "sparse.gltf"), {"sparse.gltf: /meshes/0/primitives/0/attributes/POSITION: accessor 0 is sparse; sparse accessors are not read"});
+    expect_refused(d.write(dir, "sparse.gltf"),
+                   {"sparse.gltf: /meshes/0/primitives/0/attributes/POSITION: accessor 0 is sparse; sparse accessors are not read"});
   }
   {
     Document d = one_triangle();

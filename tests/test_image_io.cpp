@@ -88,8 +88,8 @@ TEST(OutputFilesReadBack, PngIsEightBitSrgbClampedWithRowsFromTheTop) {
   image.width = 4;
   image.height = 2;
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-  image.rgb = {0.0f, 0.0031308f, 0.2f, 0.5f, 1.0f, 2.0f, -1.0f, nan, inf, 0.01f, 0.7f, 0.99f,  // top row
-               0.25f, 0.25f, 0.25f, 0.75f, 0.75f, 0.75f, 0.0f, 1.0f, 0.0f, 0.1f, 0.2f, 0.3f};
+  image.rgb = {0.0f,  0.0031308f, 0.2f,  0.5f,  1.0f,  2.0f,  -1.0f, nan,  inf,  0.01f, 0.7f, 0.99f,  // top row
+               0.25f, 0.25f,      0.25f, 0.75f, 0.75f, 0.75f, 0.0f,  1.0f, 0.0f, 0.1f,  0.2f, 0.3f};
   write_image(dir / "image.png", image);
   int width = 0, height = 0;
   const std::vector<unsigned char> bytes = read_png(dir / "image.png", width, height);

@@ -98,8 +98,8 @@ void expect_wavefront_matches_megakernel(const std::string& backend, const std::
   const LinearImage independent = render<float>(backend, Integrator::kMegakernel, description, other).image;
   const test::ImagePair same = test::compare_images(mega.image, wave.image);
   const test::ImagePair apart = test::compare_images(mega.image, independent);
-  std::printf("%s on %s: wavefront-megakernel rmse %.3g vs other seed %.3g, channels within 1e-3: %.1f%%\n", scene_name.c_str(),
-              backend.c_str(), same.rmse, apart.rmse, 100 * same.close_fraction);
+  std::printf("%s on %s: wavefront-megakernel rmse %.3g vs other seed %.3g, channels within 1e-3: %.1f%%\n", scene_name.c_str(), backend.c_str(),
+              same.rmse, apart.rmse, 100 * same.close_fraction);
   EXPECT_LE(same.rmse, 0.25 * apart.rmse);
   EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3));
   EXPECT_GE(same.close_fraction, 0.90);
@@ -125,8 +125,8 @@ TEST_P(IntegratorEquivalence, WavefrontMatchesMegakernelOnSycl) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedScenes, IntegratorEquivalence,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment",
-                                           "normal-maps"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke",
+                                           "environment", "normal-maps"),
                          test::scene_test_name);
 
 }  // namespace

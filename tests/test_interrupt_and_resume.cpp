@@ -147,13 +147,18 @@ TEST(ResumedRender, FinishedRenderResumedToMoreSamplesGivesTheSameImageFile) {
   test::TempDir dir;
   const std::string scene = test::quoted(test::scene_path("book1-final.json")) + " --width 48 --height 27 --threads 2 ";
   ASSERT_EQ(test::run_pathtracer("render " + scene + "--spp 12 -o " + test::quoted(dir / "whole.pfm"), dir).exit_code, 0);
-  ASSERT_EQ(test::run_pathtracer("render " + scene + "--spp 5 --checkpoint " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "five.pfm"), dir).exit_code, 0);
+  ASSERT_EQ(
+      test::run_pathtracer("render " + scene + "--spp 5 --checkpoint " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "five.pfm"), dir)
+          .exit_code,
+      0);
   const test::CommandResult more =
       test::run_pathtracer("render " + scene + "--spp 12 --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "more.pfm"), dir);
   ASSERT_EQ(more.exit_code, 0) << more.err;
   EXPECT_EQ(test::read_text_file(dir / "more.pfm"), test::read_text_file(dir / "whole.pfm"));
   // Fewer samples than the film holds cannot be had from it.
-  EXPECT_EQ(test::run_pathtracer("render " + scene + "--spp 3 --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "x.pfm"), dir).exit_code, 1);
+  EXPECT_EQ(test::run_pathtracer("render " + scene + "--spp 3 --resume " + test::quoted(dir / "film") + " -o " + test::quoted(dir / "x.pfm"), dir)
+                .exit_code,
+            1);
 }
 
 // Starts the program in the background on a render that would take hours; returns its process id.

@@ -117,7 +117,7 @@ TYPED_TEST(SphereIntersection, DistanceLimitsAreRespected) {
   ASSERT_TRUE(hit_shape(sphere, ray, 4.5, 1e30, hit, at));
   EXPECT_NEAR(hit.t, 6.0, tolerance<T>());
   EXPECT_FALSE(at.front_face);
-  expect_vec_near(at.normal, {0, 0, 1}, tolerance<T>());  // faces against the ray
+  expect_vec_near(at.normal, {0, 0, 1}, tolerance<T>());     // faces against the ray
   EXPECT_FALSE(hit_shape(sphere, ray, 6.0, 1e30, hit, at));  // t_min is exclusive too
   EXPECT_FALSE(hit_shape(sphere, ray, 4.5, 5.5, hit, at));   // both roots outside (t_min, t_max)
 }
@@ -264,7 +264,7 @@ TYPED_TEST(TriangleIntersection, RaysOutsideTheEdgesMiss) {
   const Shape<T> tri = test_triangle<T>();
   Hit<T> hit;
   SurfacePoint<T> at;
-  EXPECT_FALSE(hit_shape(tri, make_ray<T>({0.1, 0.1, 0}, {0, 0, -1}), 0.001, 1e30, hit, at));    // beyond the hypotenuse
+  EXPECT_FALSE(hit_shape(tri, make_ray<T>({0.1, 0.1, 0}, {0, 0, -1}), 0.001, 1e30, hit, at));   // beyond the hypotenuse
   EXPECT_FALSE(hit_shape(tri, make_ray<T>({-1.001, 0, 0}, {0, 0, -1}), 0.001, 1e30, hit, at));  // left of the left edge
   EXPECT_FALSE(hit_shape(tri, make_ray<T>({0, -1.001, 0}, {0, 0, -1}), 0.001, 1e30, hit, at));  // below the bottom edge
   EXPECT_FALSE(hit_shape(tri, make_ray<T>({-0.5, -0.5, 0}, {0, 0, 1}), 0.001, 1e30, hit, at));  // triangle behind the origin
@@ -654,7 +654,8 @@ TYPED_TEST(MediumIntersection, OriginInsideScattersJustAheadOfTheOrigin) {
   ASSERT_TRUE(hit_medium(f, 3, make_ray<T>({0, 0.2, -5}, {0, 0, -1}), 0.001, 1e30, hit));
   EXPECT_GE(hit.t, T(0.001));
   EXPECT_LT(hit.t, T(0.0011));
-  const SurfacePoint<T> at = describe_hit(f.medium, static_cast<const TriangleAttributes<T>*>(nullptr), MeshData<T>{}, make_ray<T>({0, 0.2, -5}, {0, 0, -1}), hit);
+  const SurfacePoint<T> at =
+      describe_hit(f.medium, static_cast<const TriangleAttributes<T>*>(nullptr), MeshData<T>{}, make_ray<T>({0, 0.2, -5}, {0, 0, -1}), hit);
   EXPECT_TRUE(at.front_face);
   EXPECT_NEAR(length(at.normal), 1.0, tolerance<T>());
   expect_vec_near(at.p, {0, 0.2, -5 - static_cast<double>(hit.t)}, tolerance<T>());
@@ -689,7 +690,7 @@ TYPED_TEST(MediumIntersection, BoxBoundaryMediumScattersAtTheBox) {
   // The six faces of the box [-1, 1]^2 x [-6, -4].
   const Vec3d a{-1, -1, -6}, b{1, 1, -4};
   const Vec3d dx{2, 0, 0}, dy{0, 2, 0}, dz{0, 0, 2};
-  f.boundaries = {Primitive<T>{make_test_quad<T>({a.x, a.y, b.z}, dx, dy), 0}, Primitive<T>{make_test_quad<T>({b.x, a.y, b.z}, -dz, dy), 0},
+  f.boundaries = {Primitive<T>{make_test_quad<T>({a.x, a.y, b.z}, dx, dy), 0},  Primitive<T>{make_test_quad<T>({b.x, a.y, b.z}, -dz, dy), 0},
                   Primitive<T>{make_test_quad<T>({b.x, a.y, a.z}, -dx, dy), 0}, Primitive<T>{make_test_quad<T>(a, dz, dy), 0},
                   Primitive<T>{make_test_quad<T>({a.x, b.y, b.z}, dx, -dz), 0}, Primitive<T>{make_test_quad<T>(a, dz, dx), 0}};
   f.medium = Primitive<T>{ConstantMedium<T>{0, 6, static_cast<T>(-1e-6)}, 0};

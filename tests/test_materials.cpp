@@ -13,7 +13,6 @@ namespace {
 
 using test::to;
 
-
 // Texture 0: white; texture 1: a colour.
 template <class T>
 std::vector<Texture<T>> test_textures() {
@@ -248,12 +247,13 @@ TEST(DielectricScattering, ObliqueRaysObeySnellAndSchlick) {
         ASSERT_NEAR(length(o - reflect(d, n)), 0, 1e-12);
       } else {
         ASSERT_NEAR(sine_to_axis(o, n), eta * std::sin(angle), 1e-12);  // Snell: sin t = eta sin i
-        ASSERT_GT(o.x, 0);                                               // continues forwards
+        ASSERT_GT(o.x, 0);                                              // continues forwards
       }
     }
     const double r0 = std::pow((1 - ior) / (1 + ior), 2);
     const double schlick = r0 + (1 - r0) * std::pow(1 - std::cos(angle), 5);
-    EXPECT_NEAR(static_cast<double>(reflected) / count, schlick, 5 * std::sqrt(schlick * (1 - schlick) / count)) << (entering ? "entering" : "leaving");
+    EXPECT_NEAR(static_cast<double>(reflected) / count, schlick, 5 * std::sqrt(schlick * (1 - schlick) / count))
+        << (entering ? "entering" : "leaving");
   }
 }
 

@@ -63,7 +63,8 @@ TYPED_TEST(MeshHits, MatchTheSameTrianglesWrittenOneByOne) {
   using T = TypeParam;
   TestRandom rng(2024);
   const std::shared_ptr<MeshFile> soup = test::triangle_soup(rng, 300);
-  const std::vector<Placement> placements = {{{1, 1, 1}, {0, 0, 0}, {-3, 0, 0}}, {{1.5, 0.7, 1.2}, {20, 45, -30}, {3, 1, -1}}, {{0.8, 0.8, 0.8}, {-60, 10, 5}, {0, -2, 3}}};
+  const std::vector<Placement> placements = {
+      {{1, 1, 1}, {0, 0, 0}, {-3, 0, 0}}, {{1.5, 0.7, 1.2}, {20, 45, -30}, {3, 1, -1}}, {{0.8, 0.8, 0.8}, {-60, 10, 5}, {0, -2, 3}}};
   SceneDescription meshes = sky_scene(), triangles = sky_scene();
   const u32 shared = add_mesh_file(meshes, soup, "/objects");
   const u32 single = add_mesh_file(meshes, std::make_shared<MeshFile>(*soup), "/objects");
@@ -98,9 +99,9 @@ TYPED_TEST(MeshHits, MatchTheSameTrianglesWrittenOneByOne) {
     const SurfacePoint<T> sb = describe_hit(b.primitives[hb.primitive], vb.triangle_attributes, vb.meshes, ray, hb);
     const double scale = 1 + std::abs(static_cast<double>(sb.p.x)) + std::abs(static_cast<double>(sb.p.y)) + std::abs(static_cast<double>(sb.p.z));
     const bool same = std::abs(static_cast<double>(ha.t - hb.t)) <= tolerance * scale &&
-                      static_cast<double>(length(sa.p - sb.p)) <= tolerance * scale && static_cast<double>(dot(sa.normal, sb.normal)) >= 1 - 10 * tolerance &&
-                      sa.front_face == sb.front_face && std::abs(static_cast<double>(sa.u - sb.u)) <= 10 * tolerance &&
-                      std::abs(static_cast<double>(sa.v - sb.v)) <= 10 * tolerance;
+                      static_cast<double>(length(sa.p - sb.p)) <= tolerance * scale &&
+                      static_cast<double>(dot(sa.normal, sb.normal)) >= 1 - 10 * tolerance && sa.front_face == sb.front_face &&
+                      std::abs(static_cast<double>(sa.u - sb.u)) <= 10 * tolerance && std::abs(static_cast<double>(sa.v - sb.v)) <= 10 * tolerance;
     if (!same) {
       // Overlapping triangles of the soup at the same distance may be found in either order.
       if (std::abs(static_cast<double>(ha.t - hb.t)) <= tolerance * scale) continue;
@@ -168,8 +169,10 @@ TEST(MeshMaterials, TrianglesKeepTheFileMaterialsUnlessTheObjectGivesOne) {
       Hit<double> hit{1, 0.2, 0.2, p, t};
       const u32 m = material_of_hit(flat.primitives[p], view.meshes, hit);
       ++seen[m];
-      if (flat.primitives[p].material == kMeshMaterials) EXPECT_TRUE(m == red || m == light);
-      else EXPECT_EQ(m, metal);
+      if (flat.primitives[p].material == kMeshMaterials)
+        EXPECT_TRUE(m == red || m == light);
+      else
+        EXPECT_EQ(m, metal);
     }
   }
   EXPECT_EQ(seen[red], 10);
@@ -184,11 +187,13 @@ TEST(MeshInstances, RenderLikeWorldSpaceCopiesOfTheirMesh) {
   // their noise (5.5 sigma, as the float-against-double tests).
   TestRandom rng(99);
   const std::shared_ptr<MeshFile> soup = test::triangle_soup(rng, 250, 0.6);
-  const std::vector<Placement> placements = {{{1, 1, 1}, {0, 0, 0}, {-3, 0, 0}}, {{1.5, 0.7, 1.2}, {20, 45, -30}, {3, 1, -1}}, {{-1, 1, 1}, {0, 30, 0}, {0, -1, 2}}};
+  const std::vector<Placement> placements = {
+      {{1, 1, 1}, {0, 0, 0}, {-3, 0, 0}}, {{1.5, 0.7, 1.2}, {20, 45, -30}, {3, 1, -1}}, {{-1, 1, 1}, {0, 30, 0}, {0, -1, 2}}};
   SceneDescription instanced = sky_scene(), copies = sky_scene();
   const u32 shared = add_mesh_file(instanced, soup, "/objects");
   for (const Placement& p : placements) test::place_mesh(instanced, shared, p.scale, p.degrees, p.at);
-  for (const Placement& p : placements) test::place_mesh(copies, add_mesh_file(copies, std::make_shared<MeshFile>(*soup), "/objects"), p.scale, p.degrees, p.at);
+  for (const Placement& p : placements)
+    test::place_mesh(copies, add_mesh_file(copies, std::make_shared<MeshFile>(*soup), "/objects"), p.scale, p.degrees, p.at);
   const FlatScene<float> a = test::flatten<float>(instanced), b = test::flatten<float>(copies);
   ASSERT_EQ(a.instance_transforms.size(), 3u);
   ASSERT_EQ(b.instance_transforms.size(), 0u);
@@ -247,8 +252,8 @@ TEST(LargeMeshes, TessellatedSphereIsHitWhereTheSphereIs) {
     for (u32 x = 0; x < 400; ++x) {
       const Vec3d direction = normalize(Vec3d{(x + 0.5) / 400 * 2 - 1, (y + 0.5) / 300 * 1.5 - 0.75, -2.0});
       const Vec3d origin{0, 0, 4};
-      const double along = -dot(origin, direction);                     // to the point nearest the centre
-      const double miss = length(origin + along * direction);           // the ray's distance from the centre
+      const double along = -dot(origin, direction);            // to the point nearest the centre
+      const double miss = length(origin + along * direction);  // the ray's distance from the centre
       const SampleRandom random = SampleRandom::make(1, x, y);
       Hit<float> hit{};
       const bool found = closest_hit(view, Ray<float>{test::to<float>(origin), test::to<float>(direction), 0.0f},

@@ -16,10 +16,10 @@
 namespace pt {
 namespace {
 
-
 // Adaptive Simpson quadrature of f over [a, b] to an absolute tolerance, started on `pieces` equal parts so that a
 // narrow peak is not missed by the first five points.
-double simpson_step(const std::function<double(double)>& f, double a, double b, double fa, double fm, double fb, double whole, double tolerance, int depth) {
+double simpson_step(const std::function<double(double)>& f, double a, double b, double fa, double fm, double fb, double whole, double tolerance,
+                    int depth) {
   const double m = 0.5 * (a + b), lm = 0.5 * (a + m), rm = 0.5 * (m + b);
   const double flm = f(lm), frm = f(rm);
   const double left = (m - a) / 6 * (fa + 4 * flm + fm), right = (b - m) / 6 * (fm + 4 * frm + fb);
@@ -45,8 +45,11 @@ double integrate_directions(const std::function<double(const Vec3<double>&)>& f,
   return integrate(
       [&](double c) {
         const double s = std::sqrt(std::max(0.0, 1 - c * c));
-        return integrate([&](double phi) { return f(frame.to_world(Vec3<double>{s * std::cos(phi), s * std::sin(phi), c})); }, p0, p1,
-                         tolerance / (c1 - c0), pieces);
+        return integrate(
+            [&](double phi) {
+              return f(frame.to_world(Vec3<double>{s * std::cos(phi), s * std::sin(phi), c}));
+            },
+            p0, p1, tolerance / (c1 - c0), pieces);
       },
       c0, c1, tolerance, pieces);
 }
@@ -212,8 +215,8 @@ struct Case {
 
 std::string describe(const Case& c) {
   char text[160];
-  std::snprintf(text, sizeof text, "roughness %.2f, metallic %.2f, cos(theta_o) %.3f, base (%.2f %.2f %.2f)", c.roughness, c.metallic, c.cos_o, c.base.x,
-                c.base.y, c.base.z);
+  std::snprintf(text, sizeof text, "roughness %.2f, metallic %.2f, cos(theta_o) %.3f, base (%.2f %.2f %.2f)", c.roughness, c.metallic, c.cos_o,
+                c.base.x, c.base.y, c.base.z);
   return text;
 }
 
@@ -263,8 +266,8 @@ double chi_square_p_value(const Case& c, u64 seed, std::string& report) {
     if (c1 <= 0) continue;  // reflection only: the pdf is zero below the surface (samples there fail below)
     for (int pj = 0; pj < kPhiBins; ++pj) {
       const double p0 = 2 * test::kPi * pj / kPhiBins, p1 = 2 * test::kPi * (pj + 1) / kPhiBins;
-      const double p = integrate_directions([&](const Vec3<double>& wi) { return evaluate_metallic_roughness(lobes, wo_d, wi).pdf; }, kLocal, c0, c1, p0,
-                                            p1, 1e-8, 2);
+      const double p = integrate_directions([&](const Vec3<double>& wi) { return evaluate_metallic_roughness(lobes, wo_d, wi).pdf; }, kLocal, c0, c1,
+                                            p0, p1, 1e-8, 2);
       expected[ci * kPhiBins + pj] = p * kSamples;
       total += p;
     }
@@ -336,13 +339,14 @@ TEST(Microfacet, SampledDirectionsFollowThePdf) {
 TEST(Microfacet, PdfIntegratesToTheProbabilityOfAValidSample) {
   // Over the hemisphere the mixture pdf integrates to one less the probability that a specular sample reflects below
   // the horizon (refused): that probability is measured by sampling, the integral by quadrature.
-  for (const Case& c : std::vector<Case>{{0.3, 0.0, 0.9, {1, 1, 1}}, {0.6, 1.0, 0.3, {1, 0.5, 0.2}}, {1.0, 0.5, 0.05, {0.7, 0.7, 0.7}}, {0.1, 1.0, 0.02, {1, 1, 1}}}) {
+  for (const Case& c : std::vector<Case>{
+           {0.3, 0.0, 0.9, {1, 1, 1}}, {0.6, 1.0, 0.3, {1, 0.5, 0.2}}, {1.0, 0.5, 0.05, {0.7, 0.7, 0.7}}, {0.1, 1.0, 0.02, {1, 1, 1}}}) {
     const MetallicRoughnessParams<double> params = params_of<double>(c);
     const Vec3<double> wo = wo_of<double>(c);
     const MetallicRoughnessLobes<double> lobes = metallic_roughness_lobes(params, wo);
     const ShadingFrame<double> about_mirror = frame_from_normal(Vec3<double>{-wo.x, -wo.y, wo.z});
-    const double integral = integrate_directions([&](const Vec3<double>& wi) { return evaluate_metallic_roughness(lobes, wo, wi).pdf; }, about_mirror, -1,
-                                                 1, 0, 2 * test::kPi, 1e-7, 16);
+    const double integral = integrate_directions([&](const Vec3<double>& wi) { return evaluate_metallic_roughness(lobes, wo, wi).pdf; }, about_mirror,
+                                                 -1, 1, 0, 2 * test::kPi, 1e-7, 16);
     Uniforms<double> u(5);
     constexpr int kSamples = 400000;
     int valid = 0;
@@ -363,7 +367,8 @@ TEST(Microfacet, BsdfIsReciprocal) {
   for (int i = 0; i < 2000; ++i) {
     const Case c{u(rng), u(rng) < 0.3 ? 0.0 : u(rng), 0, {u(rng), u(rng), u(rng)}};
     const MetallicRoughnessParams<double> params = params_of<double>(c);
-    const Vec3<double> a = direction_at(std::max(1e-3, u(rng)), 2 * test::kPi * u(rng)), b = direction_at(std::max(1e-3, u(rng)), 2 * test::kPi * u(rng));
+    const Vec3<double> a = direction_at(std::max(1e-3, u(rng)), 2 * test::kPi * u(rng)),
+                       b = direction_at(std::max(1e-3, u(rng)), 2 * test::kPi * u(rng));
     const Color<double> fab = evaluate_metallic_roughness(params, a, b).f_cos / b.z;
     const Color<double> fba = evaluate_metallic_roughness(params, b, a).f_cos / a.z;
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(fab[k], fba[k], 1e-9 * std::max(1.0, std::abs(fab[k]))) << describe(c);
@@ -417,8 +422,9 @@ void sampled_albedo(const MetallicRoughnessParams<T>& params, const Vec3<T>& wo,
   }
   mean = sum / static_cast<double>(samples);
   const Color<double> second = sum2 / static_cast<double>(samples);
-  error = Color<double>{std::sqrt(std::max(0.0, second.x - mean.x * mean.x) / samples), std::sqrt(std::max(0.0, second.y - mean.y * mean.y) / samples),
-                        std::sqrt(std::max(0.0, second.z - mean.z * mean.z) / samples)};
+  error =
+      Color<double>{std::sqrt(std::max(0.0, second.x - mean.x * mean.x) / samples), std::sqrt(std::max(0.0, second.y - mean.y * mean.y) / samples),
+                    std::sqrt(std::max(0.0, second.z - mean.z * mean.z) / samples)};
 }
 
 TEST(Microfacet, WhiteFurnaceLosesOnlyWhatSingleScatteringGgxLoses) {
@@ -454,7 +460,9 @@ TEST(Microfacet, WhiteFurnaceLosesOnlyWhatSingleScatteringGgxLoses) {
       previous_loss[k++] = 1 - expected;
     }
     // The hemispherical average E_avg = 2 integral of E(mu) mu dmu (Kulla and Conty 2017), by quadrature.
-    const double average = roughness == 0.0 ? 1.0 : 2 * integrate([&](double mu) { return mu > 0 ? reference.albedo(direction_at(mu), 1e-5) * mu : 0.0; }, 0, 1, 1e-4, 8);
+    const double average =
+        roughness == 0.0 ? 1.0
+                         : 2 * integrate([&](double mu) { return mu > 0 ? reference.albedo(direction_at(mu), 1e-5) * mu : 0.0; }, 0, 1, 1e-4, 8);
     std::printf("   %.4f\n", 1 - average);
     EXPECT_GE(1 - average, previous_average_loss - 1e-4);
     previous_average_loss = 1 - average;

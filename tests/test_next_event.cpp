@@ -58,7 +58,8 @@ TEST_P(NextEventMatchesNaive, CudaBlockMeansAgreeAtHighSampleCounts) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, NextEventMatchesNaive,
-                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "precision"),
+                         ::testing::Values("tiny", "meshes", "seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke",
+                                           "precision"),
                          test::scene_test_name);
 
 // ---- Every kind of light ----
@@ -125,7 +126,8 @@ TEST(NextEventEstimation, LeavesLessNoiseUnderASmallLight) {
       {"type": "quad", "corner": [-4, 0, -4], "u": [8, 0, 0], "v": [0, 0, 8], "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}},
       {"type": "quad", "corner": [-0.5, 3, -0.5], "u": [1, 0, 0], "v": [0, 0, 1], "material": {"type": "diffuse_light", "emission": [10, 10, 10]}}
     ]})");
-  const test::PixelStatistics a = test::sample_statistics(flatten_scene<double>(scene, with_light_sampling(scene.render, LightSampling::kNextEvent)), 256);
+  const test::PixelStatistics a =
+      test::sample_statistics(flatten_scene<double>(scene, with_light_sampling(scene.render, LightSampling::kNextEvent)), 256);
   const test::PixelStatistics b = test::sample_statistics(flatten_scene<double>(scene, with_light_sampling(scene.render, LightSampling::kNone)), 256);
   // Over the floor's pixels (the light's own, seen directly, and its edges are alike in both).
   double variance_a = 0, variance_b = 0;
@@ -246,8 +248,8 @@ double triangle_solid_angle(const Vec3<double>& a, const Vec3<double>& b, const 
 }
 
 // The solid angle of the part [a0, a1] x [b0, b1] of the quad corner + a u + b v, seen from `from`.
-double quad_part_solid_angle(const Vec3<double>& corner, const Vec3<double>& u, const Vec3<double>& v, const Vec3<double>& from, double a0,
-                             double a1, double b0, double b1) {
+double quad_part_solid_angle(const Vec3<double>& corner, const Vec3<double>& u, const Vec3<double>& v, const Vec3<double>& from, double a0, double a1,
+                             double b0, double b1) {
   const Vec3<double> p00 = corner + a0 * u + b0 * v - from, p10 = corner + a1 * u + b0 * v - from;
   const Vec3<double> p11 = corner + a1 * u + b1 * v - from, p01 = corner + a0 * u + b1 * v - from;
   return triangle_solid_angle(p00, p10, p11) + triangle_solid_angle(p00, p11, p01);
@@ -300,8 +302,9 @@ TEST(RectangleLight, DirectionsAreUniformOverItsSolidAngle) {
     double chi2 = 0;
     for (int a = 0; a < kCells; ++a) {
       for (int b = 0; b < kCells; ++b) {
-        const double share = quad_part_solid_angle(corner, u, v, from, double(a) / kCells, double(a + 1) / kCells, double(b) / kCells,
-                                                   double(b + 1) / kCells) / solid_angle;
+        const double share =
+            quad_part_solid_angle(corner, u, v, from, double(a) / kCells, double(a + 1) / kCells, double(b) / kCells, double(b + 1) / kCells) /
+            solid_angle;
         const double expected = draws * share;
         chi2 += (counts[a * kCells + b] - expected) * (counts[a * kCells + b] - expected) / expected;
       }
@@ -332,7 +335,7 @@ void expect_every_unblocked_light_sample_reaches_the_light() {
   const SceneView<T> view = flat.view();
   const u32 entry = flat.primitive_light[0];
   const std::vector<Vec3<double>> points{{554.5, 540, 278}, {554.5, 548, 120}, {554.5, 551, 450}, {0.5, 545, 300},
-                                         {0.5, 552, 200}, {278, 549, 554.5}, {100, 546, 554.5}, {450, 552, 554.5}};
+                                         {0.5, 552, 200},   {278, 549, 554.5}, {100, 546, 554.5}, {450, 552, 554.5}};
   constexpr u32 kSamples = 4000;
   for (const Vec3<double>& p : points) {
     SCOPED_TRACE(testing::Message() << "from " << p.x << " " << p.y << " " << p.z);

@@ -277,9 +277,12 @@ std::string normal_map_scene(const std::string& normal_keys) {
     "camera": {"look_from": [0, 1.5, 4], "look_at": [0, 0.4, 0], "vertical_fov": 45},
     "background": {"type": "sky", "horizon": [1, 1, 1], "zenith": [0.4, 0.6, 1.0]},
     "objects": [
-      {"type": "quad", "corner": [-3, 0, 3], "u": [6, 0, 0], "v": [0, 0, -6], "material": )" + material + R"(},
-      {"type": "sphere", "center": [-0.8, 0.6, 0], "radius": 0.6, "material": )" + metal + R"(},
-      {"type": "triangle", "vertices": [[0.2, 0, 0.5], [1.6, 0, 0.5], [0.9, 1.4, 0]], "uvs": [[0, 0], [1, 0], [0.5, 1]], "material": )" + material + R"(},
+      {"type": "quad", "corner": [-3, 0, 3], "u": [6, 0, 0], "v": [0, 0, -6], "material": )" +
+         material + R"(},
+      {"type": "sphere", "center": [-0.8, 0.6, 0], "radius": 0.6, "material": )" +
+         metal + R"(},
+      {"type": "triangle", "vertices": [[0.2, 0, 0.5], [1.6, 0, 0.5], [0.9, 1.4, 0]], "uvs": [[0, 0], [1, 0], [0.5, 1]], "material": )" +
+         material + R"(},
       {"type": "mesh", "file": "quad.obj", "transform": {"translate": [0.9, 0.7, -1]}},
       {"type": "sphere", "center": [1.5, 2.5, 1.5], "radius": 0.4, "material": {"type": "diffuse_light", "emission": [8, 7, 6]}}
     ]

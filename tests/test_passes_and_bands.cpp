@@ -22,9 +22,9 @@ TEST(PassLength, AimsAtTheBackendsPassSeconds) {
 }
 
 TEST(PassLength, GrowsAtMostFourfoldAndNeverBelowOneSample) {
-  EXPECT_EQ(next_pass_samples(0.01, 10, 1, 2.0), 4u);   // 2000 wanted after one fast pass of 1 sample
-  EXPECT_EQ(next_pass_samples(10.0, 1, 1, 0.5), 1u);    // a sample takes longer than a pass
-  EXPECT_EQ(next_pass_samples(0.0, 0, 3, 0.5), 6u);     // nothing measured yet: twice the last
+  EXPECT_EQ(next_pass_samples(0.01, 10, 1, 2.0), 4u);  // 2000 wanted after one fast pass of 1 sample
+  EXPECT_EQ(next_pass_samples(10.0, 1, 1, 0.5), 1u);   // a sample takes longer than a pass
+  EXPECT_EQ(next_pass_samples(0.0, 0, 3, 0.5), 6u);    // nothing measured yet: twice the last
 }
 
 TEST(PassLength, EndsNearTheTimeLimit) {
@@ -38,9 +38,7 @@ TEST(PassLength, EndsNearTheTimeLimit) {
 // a stop and leaves it, as a rank does whose band is still under way when the stop comes.
 class OtherProcessWorker final : public BandWorker {
  public:
-  OtherProcessWorker(const FlatScene<float>& scene, u32 width) : device_(make_cpu_backend<float>(1)), width_(width) {
-    device_->upload(scene);
-  }
+  OtherProcessWorker(const FlatScene<float>& scene, u32 width) : device_(make_cpu_backend<float>(1)), width_(width) { device_->upload(scene); }
   std::string name() const override { return "stand-in rank"; }
   bool leaves_bands() const override { return true; }
   bool render_band(const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into, const std::function<bool()>& stop) override {

@@ -35,9 +35,8 @@ using test::vertex_count;
 
 const std::filesystem::path kModels = "/usr/share/assimp/models";
 
-#define REQUIRE_TEST_MODELS()                                                                  \
-  if (!std::filesystem::is_directory(kModels))                                               \
-  GTEST_SKIP() << kModels.string() << " is not there (Debian's assimp-testmodels package)"
+#define REQUIRE_TEST_MODELS() \
+  if (!std::filesystem::is_directory(kModels)) GTEST_SKIP() << kModels.string() << " is not there (Debian's assimp-testmodels package)"
 
 // Exact equality of points (Vec3 has no ==), with the values in the failure message.
 testing::AssertionResult same(const Vec3d& a, const Vec3d& b) {
@@ -48,7 +47,8 @@ testing::AssertionResult same(const Vec3d& a, const Vec3d& b) {
 testing::AssertionResult same(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
   if (a.size() != b.size()) return testing::AssertionFailure() << a.size() << " points, not " << b.size();
   for (std::size_t i = 0; i < a.size(); ++i)
-    if (const testing::AssertionResult result = same(a[i], b[i]); !result) return testing::AssertionFailure() << "point " << i << ": " << result.message();
+    if (const testing::AssertionResult result = same(a[i], b[i]); !result)
+      return testing::AssertionFailure() << "point " << i << ": " << result.message();
   return testing::AssertionSuccess();
 }
 
@@ -190,8 +190,8 @@ std::string ply_text(const PlySample& sample, const std::string& format) {
     for (std::size_t i = 0; i < sample.positions.size(); ++i) {
       const auto& p = sample.positions[i];
       const auto& n = sample.normals[i];
-      out += fmt::format("{:.17g} {:.9g} {:.9g} 255 2 -7 9 {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} -3\n", p[0], p[1], p[2], n[0], n[1], n[2], sample.uvs[i][0],
-                         sample.uvs[i][1]);
+      out += fmt::format("{:.17g} {:.9g} {:.9g} 255 2 -7 9 {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} -3\n", p[0], p[1], p[2], n[0], n[1], n[2],
+                         sample.uvs[i][0], sample.uvs[i][1]);
     }
     return out;
   }
@@ -204,7 +204,8 @@ std::string ply_text(const PlySample& sample, const std::string& format) {
     body.put<double>(0.5);
     body.put<double>(-1e-3);
   }
-  for (const auto& [vertex1, path, length] : {std::tuple{1, std::vector<std::uint16_t>{4, 5, 6}, 2.5}, std::tuple{2, std::vector<std::uint16_t>{}, 0.25}}) {
+  for (const auto& [vertex1, path, length] :
+       {std::tuple{1, std::vector<std::uint16_t>{4, 5, 6}, 2.5}, std::tuple{2, std::vector<std::uint16_t>{}, 0.25}}) {
     body.put<std::int32_t>(vertex1);
     body.put<std::int8_t>(static_cast<std::int8_t>(path.size()));
     for (const std::uint16_t item : path) body.put<std::uint16_t>(item);
@@ -296,7 +297,8 @@ TEST(PlyReader, NormalsAreNormalisedAndZeroOnesDropped) {
   EXPECT_TRUE(zero.meshes[0].normals.empty());
   EXPECT_TRUE(has_warning(zero, "1 vertex normals of zero length")) << all_warnings(zero);
   // Some of the three: refused.
-  test::write_text_file(dir / "partial.ply", ascii_ply(kXyz + "property float nx\nproperty float nz\n", "0 0 0 0 1\n1 0 0 0 1\n1 1 0 0 1\n", "3 0 1 2\n", 3, 1));
+  test::write_text_file(dir / "partial.ply",
+                        ascii_ply(kXyz + "property float nx\nproperty float nz\n", "0 0 0 0 1\n1 0 0 0 1\n1 1 0 0 1\n", "3 0 1 2\n", 3, 1));
   expect_refused(dir / "partial.ply", {"line 3:", "normal", "all three or none"});
 }
 
@@ -334,14 +336,16 @@ TEST(PlyReader, TruncatedBinaryBodyIsRefused) {
 TEST(PlyReader, HeaderCountsBeyondTheFileOrTheLimitsAreRefusedBeforeAllocating) {
   test::TempDir dir;
   // 2^40 faces: beyond the limit on triangles.
-  test::write_text_file(dir / "huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                                          "element face 1099511627776\nproperty list uchar int vertex_indices\nend_header\n" +
-                                              std::string(36 + 13, '\0'));
+  test::write_text_file(dir / "huge.ply",
+                        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 1099511627776\nproperty list uchar int vertex_indices\nend_header\n" +
+                            std::string(36 + 13, '\0'));
   expect_refused(dir / "huge.ply", {"line 7:", "1099511627776 faces, more than the 268435456"});
   // 100 million vertices (within the limit, 2.4 GB as read) in a 200-byte file: the file cannot hold them.
-  test::write_text_file(dir / "lie.ply", "ply\nformat binary_big_endian 1.0\nelement vertex 100000000\nproperty float x\nproperty float y\nproperty float z\n"
-                                         "element face 1\nproperty list uchar int vertex_indices\nend_header\n" +
-                                             std::string(49, '\0'));
+  test::write_text_file(dir / "lie.ply",
+                        "ply\nformat binary_big_endian 1.0\nelement vertex 100000000\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 1\nproperty list uchar int vertex_indices\nend_header\n" +
+                            std::string(49, '\0'));
   expect_refused(dir / "lie.ply", {"line 3:", "100000000 'vertex' elements", "at least 12 bytes each", "only 49 bytes"});
   // As text: each value takes two bytes at least.
   test::write_text_file(dir / "lie.txt.ply", ascii_ply(kXyz, kSquare, "3 0 1 2\n", 4, 50000000));
@@ -363,11 +367,14 @@ TEST(PlyReader, BadHeadersAreRefusedWithTheirLine) {
   refused("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty real x\nend_header\n", {"line 4: unknown property type 'real'"});
   refused("orphan.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n", {"line 3: a property before any element"});
   refused("count.ply", "ply\nformat ascii 1.0\nelement vertex -3\nend_header\n", {"line 3:", "not a whole number"});
-  refused("twice.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty double x\nend_header\n", {"line 5: a second property 'x'"});
+  refused("twice.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty double x\nend_header\n",
+          {"line 5: a second property 'x'"});
   refused("noz.ply", ascii_ply("property float x\nproperty float y\n", "", "", 0, 0), {"line 3: the vertex element has no property 'z'"});
-  refused("noindices.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kXyz + "element face 1\nproperty list uchar int corners\nend_header\n0 0 0\n3 0 0 0\n",
+  refused("noindices.ply",
+          "ply\nformat ascii 1.0\nelement vertex 1\n" + kXyz + "element face 1\nproperty list uchar int corners\nend_header\n0 0 0\n3 0 0 0\n",
           {"line 7:", "no list 'vertex_indices'"});
-  refused("floatindices.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kXyz + "element face 1\nproperty list uchar float vertex_indices\nend_header\n",
+  refused("floatindices.ply",
+          "ply\nformat ascii 1.0\nelement vertex 1\n" + kXyz + "element face 1\nproperty list uchar float vertex_indices\nend_header\n",
           {"line 8:", "floating-point"});
   refused("nofaces.ply", ascii_ply(kXyz, kSquare, "", 4, 0), {"has no faces"});
 }
@@ -429,7 +436,7 @@ TEST(ObjReader, SpiderWithTexturedMaterials) {
   EXPECT_EQ(file.textures.size(), 4u);
   for (const MeshMaterial& material : file.materials) EXPECT_GE(material.base_color_texture, 0) << material.name;
   EXPECT_NEAR(file.materials[0].base_color.x, 0.827451, 1e-12);  // Kd of Skin multiplies its texture
-  EXPECT_EQ(file.materials[0].roughness, 1.0);  // no Pr
+  EXPECT_EQ(file.materials[0].roughness, 1.0);                   // no Pr
   for (const TriangleMesh& mesh : file.meshes) EXPECT_EQ(mesh.uvs.size(), mesh.positions.size()) << mesh.name;
 }
 
@@ -683,8 +690,7 @@ TEST(ObjReader, NormalMapsFromNormOrFromABumpStatementThatHoldsOne) {
                         "newmtl normed\nKd 0.5 0.5 0.5\nnorm -bm 0.5 normals.ppm\n\n"
                         "newmtl bumped\nKd 0.5 0.5 0.5\nmap_Bump normals.ppm\n\n"
                         "newmtl heights\nKd 0.5 0.5 0.5\nbump height.ppm\n");
-  test::write_text_file(dir / "n.obj",
-                        "mtllib n.mtl\n" + kTriangleObj + "usemtl normed\nf 1 2 3\nusemtl bumped\nf 1 3 4\nusemtl heights\nf 2 3 4\n");
+  test::write_text_file(dir / "n.obj", "mtllib n.mtl\n" + kTriangleObj + "usemtl normed\nf 1 2 3\nusemtl bumped\nf 1 3 4\nusemtl heights\nf 2 3 4\n");
   const MeshFile file = read_obj_file(dir / "n.obj");
   ASSERT_EQ(file.materials.size(), 3u);
   const MeshMaterial& normed = file.materials[0];

@@ -55,8 +55,7 @@ Shape<T> converted(const Shape<double>& shape) {
   if (const auto* s = std::get_if<Sphere<double>>(&shape)) return Sphere<T>{test::to<T>(s->center), static_cast<T>(s->radius)};
   if (const auto* s = std::get_if<MovingSphere<double>>(&shape))
     return MovingSphere<T>{test::to<T>(s->center0), static_cast<T>(s->radius), test::to<T>(s->velocity), static_cast<T>(s->time0)};
-  if (const auto* t = std::get_if<Triangle<double>>(&shape))
-    return Triangle<T>{test::to<T>(t->p0), test::to<T>(t->edge1), test::to<T>(t->edge2), -1};
+  if (const auto* t = std::get_if<Triangle<double>>(&shape)) return Triangle<T>{test::to<T>(t->p0), test::to<T>(t->edge1), test::to<T>(t->edge2), -1};
   const Quad<double>& q = std::get<Quad<double>>(shape);
   return quad_in<T>(q);
 }
@@ -86,7 +85,8 @@ std::vector<ShapeCase> unit_shapes() {
   return {{"sphere", Sphere<double>{{0.1, 0.2, -0.3}, 0.7}},
           {"moving sphere", MovingSphere<double>{{0.1, 0.2, -0.3}, 0.7, {0.3, -0.2, 0.1}, 0}},
           {"triangle", Triangle<double>{tilt.apply_point({-0.6, -0.4, 0.2}), tilt.apply_vector({1.3, 0.1, 0}), tilt.apply_vector({0.2, 0.9, 0}), -1}},
-          {"sliver triangle", Triangle<double>{tilt.apply_point({-0.6, -0.4, 0.2}), tilt.apply_vector({1.5, 0.02, 0}), tilt.apply_vector({1.4, 0.05, 0}), -1}},
+          {"sliver triangle",
+           Triangle<double>{tilt.apply_point({-0.6, -0.4, 0.2}), tilt.apply_vector({1.5, 0.02, 0}), tilt.apply_vector({1.4, 0.05, 0}), -1}},
           {"quad", make_quad(tilt.apply_point({-0.5, -0.5, 0}), tilt.apply_vector({1.2, 0, 0}), tilt.apply_vector({0.3, 0.9, 0}))}};
 }
 
@@ -145,8 +145,8 @@ void expect_no_self_intersection(bool narrow) {
         // within the normal's own rounding of the tangent plane goes to is the kernel's call, not the test's.
         normal = normalize(as_double(at.geometric_normal));
         const double radius = std::holds_alternative<Sphere<double>>(exact) ? std::get<Sphere<double>>(exact).radius
-                              : sphere                                    ? std::get<MovingSphere<double>>(exact).radius
-                                                                          : 0.0;
+                              : sphere                                      ? std::get<MovingSphere<double>>(exact).radius
+                                                                            : 0.0;
         // A direction nearly in the tangent plane, on a random side: angle from the surface log-uniform in [1e-7, 1].
         Vec3d tangent = cross(normal, rng.unit_vector());
         if (length(tangent) < 1e-3) continue;
@@ -195,7 +195,8 @@ TEST(RaySpawning, OffsetIsRelativeToTheSceneSize) {
     const Ray<float> ray{test::to<float>(Vec3d{0.2, 0.1, 5} * scale), test::to<float>(normalize(Vec3d{-0.04, -0.02, -1})), 0};
     Hit<float> hit{};
     ASSERT_TRUE(intersect_geometry(sphere, ray, 0.0f, largest<float>(), hit));
-    const SurfacePoint<float> at = describe_hit(Primitive<float>{sphere, 0}, static_cast<const TriangleAttributes<float>*>(nullptr), MeshData<float>{}, ray, hit);
+    const SurfacePoint<float> at =
+        describe_hit(Primitive<float>{sphere, 0}, static_cast<const TriangleAttributes<float>*>(nullptr), MeshData<float>{}, ray, hit);
     const double offset = at.offset;
     EXPECT_GT(offset, 1e-7 * scale);
     EXPECT_LT(offset, 1e-5 * scale);

@@ -126,7 +126,9 @@ TEST(SobolSampler, DimensionsAndPixelsDoNotCorrelate) {
     });
     EXPECT_LT(std::abs(r), bound) << pair.what;
   }
-  const double r_pixels = correlation([](u32 p) { return std::pair{sobol(1, p, 5).uniform<double>(0, kDimPixel), sobol(1, p + 1, 5).uniform<double>(0, kDimPixel)}; });
+  const double r_pixels = correlation([](u32 p) {
+    return std::pair{sobol(1, p, 5).uniform<double>(0, kDimPixel), sobol(1, p + 1, 5).uniform<double>(0, kDimPixel)};
+  });
   EXPECT_LT(std::abs(r_pixels), bound);
 }
 
@@ -197,7 +199,8 @@ TEST_P(SobolMatchesIndependent, BlockMeansAgreeWithinNoise) {
   expect_blocks_agree(a, b, "sobol", "independent", name);
 }
 
-INSTANTIATE_TEST_SUITE_P(Scenes, SobolMatchesIndependent, ::testing::Values("tiny", "book1-final", "book2-final", "cornell-smoke"), test::scene_test_name);
+INSTANTIATE_TEST_SUITE_P(Scenes, SobolMatchesIndependent, ::testing::Values("tiny", "book1-final", "book2-final", "cornell-smoke"),
+                         test::scene_test_name);
 
 }  // namespace
 }  // namespace pt

@@ -61,7 +61,8 @@ class TempDir {
     // Folders a test made read-only must become writable again before their contents can go.
     for (auto it = std::filesystem::recursive_directory_iterator(path_, error); !error && it != std::filesystem::recursive_directory_iterator();
          it.increment(error))
-      if (it->is_directory(error)) std::filesystem::permissions(it->path(), std::filesystem::perms::owner_all, std::filesystem::perm_options::add, error);
+      if (it->is_directory(error))
+        std::filesystem::permissions(it->path(), std::filesystem::perms::owner_all, std::filesystem::perm_options::add, error);
     std::filesystem::permissions(path_, std::filesystem::perms::owner_all, std::filesystem::perm_options::add, error);
     std::filesystem::remove_all(path_, error);
   }
@@ -280,9 +281,7 @@ Vec3<T> to(const Vec3d& v) {
 }
 
 // Parses scene text as if it were a file in scenes/ (so image paths such as textures/... resolve).
-inline SceneDescription parse(const std::string& json, const std::string& source = "test.json") {
-  return parse_scene(json, source, scenes_dir());
-}
+inline SceneDescription parse(const std::string& json, const std::string& source = "test.json") { return parse_scene(json, source, scenes_dir()); }
 
 template <class T>
 FlatScene<T> flatten(const SceneDescription& scene) {
@@ -462,9 +461,10 @@ inline std::string describe_blocks(const std::vector<BlockDifference>& blocks, s
   out.precision(5);
   for (std::size_t i = 0; i < std::min(count, blocks.size()); ++i) {
     const BlockDifference& d = blocks[i];
-    out << "  block at (" << d.x << ", " << d.y << ") " << "RGB"[d.channel] << ": " << name_a << " " << d.mean_a << ", " << name_b << " "
-        << d.mean_b << ", difference " << d.mean_a - d.mean_b << " (" << (d.mean_b != 0 ? 100 * (d.mean_a - d.mean_b) / d.mean_b : 0.0)
-        << "%), sigma " << d.sigma << ", z " << d.z << (d.within ? "" : "  OUTSIDE") << "\n";
+    out << "  block at (" << d.x << ", " << d.y << ") "
+        << "RGB"[d.channel] << ": " << name_a << " " << d.mean_a << ", " << name_b << " " << d.mean_b << ", difference " << d.mean_a - d.mean_b
+        << " (" << (d.mean_b != 0 ? 100 * (d.mean_a - d.mean_b) / d.mean_b : 0.0) << "%), sigma " << d.sigma << ", z " << d.z
+        << (d.within ? "" : "  OUTSIDE") << "\n";
   }
   return out.str();
 }

@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "backends/registry.hpp"
 #include "backends/cpu/cpu_backend.hpp"
-#include "integrators/wavefront.hpp"
+#include "backends/registry.hpp"
 #include "film/film.hpp"
+#include "integrators/wavefront.hpp"
 #include "loading/scene_loader.hpp"
 #include "test_support.hpp"
 #if PT_HAVE_SYCL
@@ -94,12 +94,12 @@ void expect_parity(const std::string& scene, u32 width, u32 height, u32 spp) {
   const double distance = rmse(reference.image, tested.image);
   const double mean_cpu = mean(reference.image), mean_sycl = mean(tested.image);
   const double close = fraction_close(reference.image, tested.image, 1e-3);
-  std::printf("%s %ux%u %u spp (%s) on %s: rmse %.3g (seed-to-seed noise %.3g, ratio %.3g), means %.6g / %.6g, "
-              "%.2f%% of channels within 1e-3, dropped %llu / %llu\n",
-              scene.c_str(), width, height, spp, sizeof(T) == 4 ? "float" : "double", sycl->name().c_str(), distance, noise,
-              noise > 0 ? distance / noise : 0.0, mean_cpu, mean_sycl, 100 * close,
-              static_cast<unsigned long long>(tested.stats.dropped_samples),
-              static_cast<unsigned long long>(reference.stats.dropped_samples));
+  std::printf(
+      "%s %ux%u %u spp (%s) on %s: rmse %.3g (seed-to-seed noise %.3g, ratio %.3g), means %.6g / %.6g, "
+      "%.2f%% of channels within 1e-3, dropped %llu / %llu\n",
+      scene.c_str(), width, height, spp, sizeof(T) == 4 ? "float" : "double", sycl->name().c_str(), distance, noise,
+      noise > 0 ? distance / noise : 0.0, mean_cpu, mean_sycl, 100 * close, static_cast<unsigned long long>(tested.stats.dropped_samples),
+      static_cast<unsigned long long>(reference.stats.dropped_samples));
 
   EXPECT_GT(noise, 0.0) << "two seeds gave the same image: the bound below would mean nothing";
   EXPECT_LE(distance, 0.25 * noise);

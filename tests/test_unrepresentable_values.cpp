@@ -89,8 +89,8 @@ TEST(UnrepresentableValues, BaseSceneFlattensInEveryFormat) {
 }
 
 TEST(UnrepresentableValues, SphereRadiusBeyondFloat) {
-  expect_refused<float>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"), "1e30", "/objects/1/radius",
-                        {"1e+30 " + kFloatLengths});
+  expect_refused<float>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"), "1e30",
+                        "/objects/1/radius", {"1e+30 " + kFloatLengths});
   // The limit is 2^56, about 7.2e16: just inside it renders in float; double takes the large radius.
   expect_accepted<float>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 7e16, "material": "white"})"));
   expect_accepted<double>(with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1e30, "material": "white"})"));
@@ -105,8 +105,8 @@ TEST(UnrepresentableValues, CoordinateBeyondFloat) {
       with_value_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": 1, "transform": {"translate": [0, 1e17, 0]}, "material": "white"})"),
       R"([2, 0, 0])", "/objects/1/center", {"1e+17 (after the object's transform) " + kFloatLengths});
   // A box's corner, as written.
-  expect_refused<float>(with_value_object(R"({"type": "box", "min": [0, 0, 0], "max": [1, 1e17, 1], "material": "white"})"), "1e17", "/objects/1/max/1",
-                        {"1e+17 " + kFloatLengths});
+  expect_refused<float>(with_value_object(R"({"type": "box", "min": [0, 0, 0], "max": [1, 1e17, 1], "material": "white"})"), "1e17",
+                        "/objects/1/max/1", {"1e+17 " + kFloatLengths});
   // Just inside the limit.
   expect_accepted<float>(with_value_object(R"({"type": "quad", "corner": [7e16, 0, 0], "u": [1, 0, 0], "v": [0, 1, 0], "material": "white"})"));
   expect_accepted<float>(
@@ -132,8 +132,9 @@ TEST(UnrepresentableValues, EmissionBeyondFloatAndDouble) {
   inside.lamp = "[5e151, 1, 1]";
   expect_accepted<double>(scene_text(inside));
   // Every colour is radiance-like: an albedo and a background too.
-  expect_refused<float>(test::replaced(scene_text(Parts{}), R"("objects": [)", R"("background": {"type": "constant", "color": [0, 0, 1e18]}, "objects": [)"),
-                        "1e18", "/background/color/2", {"1e+18 " + kFloatColours});
+  expect_refused<float>(
+      test::replaced(scene_text(Parts{}), R"("objects": [)", R"("background": {"type": "constant", "color": [0, 0, 1e18]}, "objects": [)"), "1e18",
+      "/background/color/2", {"1e+18 " + kFloatColours});
 }
 
 TEST(UnrepresentableValues, CameraBeyondFloatAndDouble) {
@@ -151,9 +152,10 @@ TEST(UnrepresentableValues, CameraBeyondFloatAndDouble) {
 
 TEST(UnrepresentableValues, TriangleEdgeBeyondFloat) {
   // A triangle's normal squares the squared length of cross(edge1, edge2): its edges have a range of their own.
-  expect_refused<float>(with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"), "[2e9, 0, 0]",
-                        "/objects/1/vertices/1",
-                        {"2e+09 (the edge from vertex 0) is beyond float's supported range for triangle edges (|x| <= 1.07e+09; see docs/scene-format.md)"});
+  expect_refused<float>(
+      with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"), "[2e9, 0, 0]",
+      "/objects/1/vertices/1",
+      {"2e+09 (the edge from vertex 0) is beyond float's supported range for triangle edges (|x| <= 1.07e+09; see docs/scene-format.md)"});
   expect_accepted<float>(with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [1e9, 0, 0], [0, 1, 0]], "material": "white"})"));
   expect_accepted<double>(with_value_object(R"({"type": "triangle", "vertices": [[0, 0, 0], [2e9, 0, 0], [0, 1, 0]], "material": "white"})"));
 }
@@ -172,24 +174,26 @@ TEST(UnrepresentableValues, FixedPointValueOutOfRange) {
   // Q16.16 holds up to 32768; colours are not scaled.
   Parts bright;
   bright.lamp = "[1, 1, 1e5]";
-  expect_refused<Fixed<16, 16>>(scene_text(bright), "1e5", "/materials/lamp/emission/2", {"100000 does not fit q16.16 (|x| <= 32768; see docs/numerics.md)"});
+  expect_refused<Fixed<16, 16>>(scene_text(bright), "1e5", "/materials/lamp/emission/2",
+                                {"100000 does not fit q16.16 (|x| <= 32768; see docs/numerics.md)"});
   bright.lamp = "[1, 1, 30000]";
   expect_accepted<Fixed<16, 16>>(scene_text(bright));
   // A 0.01-unit quad beside a 1000-unit sphere: Q10.10 scales the scene by 1/32 (its intersection tests need
   // coordinates within an eighth of 512). The quad fits: it stores its dual edges times a power of two near its edge
   // length (they were 1 / length, 3200 after scaling). Q32.32, which still squares distances, scales by 1/128.
   const std::string mixed = test::replaced(with_value_object(R"({"type": "sphere", "center": [0, -1000, 0], "radius": 1000, "material": "white"})"),
-                                     R"("material": "white"}
+                                           R"("material": "white"}
   ])",
-                                     R"("material": "white"},
+                                           R"("material": "white"},
     {"type": "quad", "corner": [0, 0, 0], "u": [0.01, 0, 0], "v": [0, 0.01, 0], "material": "white"}
   ])");
   expect_accepted<Fixed<10, 10>>(mixed);
   expect_accepted<Fixed<32, 32>>(mixed);
   // A per-length value still grows as the scene shrinks: the checker's 19.1 cells per unit (frequency 60 / pi)
   // become 611 after scaling by 1/32, beyond Q10.10.
-  const std::string checkered = test::replaced(mixed, R"("radius": 1000, "material": "white")",
-                                         R"("radius": 1000, "material": {"type": "lambertian", "texture": {"type": "checker", "odd": [0.2, 0.3, 0.1], "even": [0.9, 0.9, 0.9], "frequency": 60}})");
+  const std::string checkered = test::replaced(
+      mixed, R"("radius": 1000, "material": "white")",
+      R"("radius": 1000, "material": {"type": "lambertian", "texture": {"type": "checker", "odd": [0.2, 0.3, 0.1], "even": [0.9, 0.9, 0.9], "frequency": 60}})");
   expect_refused<Fixed<10, 10>>(checkered, "60}", "/objects/1/material/texture/frequency",
                                 {"19.0986 (cells per unit length, frequency / pi), 611.155 after scaling lengths by 0.03125, does not fit q10.10"});
   expect_accepted<Fixed<16, 16>>(checkered);

@@ -144,7 +144,8 @@ class RankWorker final : public BandWorker {
     // by a slower worker, the sleep runs long; ranks of one kind of device are the case this is for.) The sleep is
     // cut into slices that look for a stop.
     using Clock = std::chrono::steady_clock;
-    const Clock::time_point wake = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(0.8 * work.expected_seconds));
+    const Clock::time_point wake =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(0.8 * work.expected_seconds));
     while (!stop() && Clock::now() < wake) std::this_thread::sleep_until(std::min(wake, Clock::now() + kStopLook));
     const std::optional<MPI_Status> reply = probe_unless(rank_, stop);
     if (!reply) {
@@ -220,7 +221,8 @@ std::vector<std::unique_ptr<BandWorker>> Distributed::gather_workers(u64 check) 
       throw RemoteError(fmt::format("{}: has another scene file or other settings than rank 0 (every rank must render the same)", where(rank)));
   }
   std::vector<std::unique_ptr<BandWorker>> workers;
-  for (int rank = 1; rank < size_; ++rank) workers.push_back(std::make_unique<RankWorker>(rank, where(rank), fmt::format("{}: {}", where(rank), names[rank])));
+  for (int rank = 1; rank < size_; ++rank)
+    workers.push_back(std::make_unique<RankWorker>(rank, where(rank), fmt::format("{}: {}", where(rank), names[rank])));
   return workers;
 }
 
@@ -230,9 +232,7 @@ void Distributed::stop_all() {
   for (int rank = 1; rank < size_; ++rank) send_bytes(nullptr, 0, rank, kStop);
 }
 
-void Distributed::report_ready(u64 check, const std::string& name) {
-  send_text(fmt::format("{:x}\n{}\n{}", check, host_, name), 0, kReady);
-}
+void Distributed::report_ready(u64 check, const std::string& name) { send_text(fmt::format("{:x}\n{}\n{}", check, host_, name), 0, kReady); }
 
 void Distributed::report_failure(const std::string& message) { send_text(fmt::format("{}\n{}", host_, message), 0, kFailed); }
 
@@ -266,8 +266,10 @@ void Distributed::serve(u32 width, const std::function<void(const BandWork&, std
     } catch (const std::exception& e) {
       failure = e.what();
     }
-    if (failure.empty()) send_bytes(band.data(), band.size_bytes(), 0, kBandDone);
-    else send_text(failure, 0, kFailed);
+    if (failure.empty())
+      send_bytes(band.data(), band.size_bytes(), 0, kBandDone);
+    else
+      send_text(failure, 0, kFailed);
   }
 }
 

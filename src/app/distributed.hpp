@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "base/errors.hpp"
 #include "backends/bands.hpp"
+#include "base/errors.hpp"
 
 namespace pt {
 
@@ -33,7 +33,7 @@ class Distributed {
   Distributed(int& argc, char**& argv);  // MPI_Init_thread; throws BackendError where MPI is not built in
   Distributed(const Distributed&) = delete;
   Distributed& operator=(const Distributed&) = delete;
-  ~Distributed();                        // MPI_Finalize
+  ~Distributed();  // MPI_Finalize
 
   int rank() const { return rank_; }
   int size() const { return size_; }

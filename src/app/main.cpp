@@ -10,26 +10,26 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <future>
 #include <numeric>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
-#include "backends/registry.hpp"
 #include "app/distributed.hpp"
 #include "app/image_size.hpp"
 #include "app/numerics.hpp"
+#include "backends/multi_backend.hpp"
+#include "backends/registry.hpp"
 #include "base/atomic_file.hpp"
+#include "base/number_formats.hpp"
 #include "film/checkpoint.hpp"
 #include "film/film.hpp"
-#include "backends/multi_backend.hpp"
-#include "base/number_formats.hpp"
 #include "loading/scene_loader.hpp"
 
 #ifndef PT_VERSION
@@ -52,13 +52,13 @@ struct RenderOptions {
   unsigned threads = 0;
   std::string backend = "cpu";
   std::string device = "0";  // one device, or several (backends/registry.hpp, DeviceList)
-  int sycl_device = -1;  // SYCL device index; negative: the runtime's default choice
+  int sycl_device = -1;      // SYCL device index; negative: the runtime's default choice
   std::string number_format = "float";
   std::string integrator = "auto";
   std::optional<std::string> light_sampling;  // "nee" or "none"; the scene's (NEE by default) if omitted
   std::optional<std::string> sampler;         // "sobol" or "independent"; the scene's (sobol by default) if omitted
   bool quiet = false;
-  bool verbose = false;  // render only: the time of each phase
+  bool verbose = false;            // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
   double checkpoint_interval = 60;
   double time_limit = 0;
@@ -108,9 +108,14 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   if (options.light_sampling) settings.light_sampling = *options.light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
   if (options.sampler) settings.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
   // The scene's own size was checked when it was read, so a size too large here comes from the command line.
-  if (options.width && options.height) check_image_size(settings.width, settings.height, fmt::format("--width {} --height {}", settings.width, settings.height));
-  else if (options.width) check_image_size(settings.width, settings.height, fmt::format("--width {} with the scene's height {} ({})", settings.width, settings.height, scene.source));
-  else if (options.height) check_image_size(settings.width, settings.height, fmt::format("--height {} with the scene's width {} ({})", settings.height, settings.width, scene.source));
+  if (options.width && options.height)
+    check_image_size(settings.width, settings.height, fmt::format("--width {} --height {}", settings.width, settings.height));
+  else if (options.width)
+    check_image_size(settings.width, settings.height,
+                     fmt::format("--width {} with the scene's height {} ({})", settings.width, settings.height, scene.source));
+  else if (options.height)
+    check_image_size(settings.width, settings.height,
+                     fmt::format("--height {} with the scene's width {} ({})", settings.height, settings.width, scene.source));
   return settings;
 }
 
@@ -141,11 +146,11 @@ CheckpointKey render_key(const RenderOptions& options, const SceneDescription& s
   std::ifstream in(scene.source, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
-  return checkpoint_key(text.str(),
-                        fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {}", settings.max_depth, settings.seed,
-                                    settings.roulette_depth, options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee",
-                                    sampler_name(settings.sampler)),
-                        settings.width, settings.height);
+  return checkpoint_key(
+      text.str(),
+      fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {}", settings.max_depth, settings.seed, settings.roulette_depth,
+                  options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee", sampler_name(settings.sampler)),
+      settings.width, settings.height);
 }
 
 using Clock = std::chrono::steady_clock;
@@ -186,8 +191,8 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
   const DeviceList devices = parse_device_list(options.device, options.backend);
   std::future<std::unique_ptr<RenderBackend<T>>> starting = std::async(std::launch::async, [&] {
     const auto start = Clock::now();
-    std::unique_ptr<RenderBackend<T>> made = make_render_backend<T>(options.backend, devices, options.threads, integrator_of(options),
-                                                                    options.sycl_device);
+    std::unique_ptr<RenderBackend<T>> made =
+        make_render_backend<T>(options.backend, devices, options.threads, integrator_of(options), options.sycl_device);
     device_seconds = seconds_since(start);
     return made;
   });
@@ -219,7 +224,9 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
   control.time_limit_seconds = options.time_limit;
   if (!options.checkpoint.empty()) {
     control.checkpoint_interval_seconds = options.checkpoint_interval;
-    control.checkpoint = [&](std::span<const FilmPixel> pixels, u32 samples_done) { write_checkpoint(options.checkpoint, key, pixels, samples_done); };
+    control.checkpoint = [&](std::span<const FilmPixel> pixels, u32 samples_done) {
+      write_checkpoint(options.checkpoint, key, pixels, samples_done);
+    };
   }
   Checkpoint resumed;
   if (!options.resume.empty()) {
@@ -229,7 +236,8 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
                                    resumed.samples_done, settings.samples_per_pixel));
     control.start_film = resumed.film;
     control.start_samples = resumed.samples_done;
-    if (!options.quiet) fmt::print(stderr, "resuming {} at {} of {} samples per pixel\n", options.resume, resumed.samples_done, settings.samples_per_pixel);
+    if (!options.quiet)
+      fmt::print(stderr, "resuming {} at {} of {} samples per pixel\n", options.resume, resumed.samples_done, settings.samples_per_pixel);
   }
   // The film is resolved band by band as the image is encoded, never copied whole (BENCHMARKS.md, memory).
   const RenderedFilm film = render_film(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback(), control);
@@ -253,14 +261,14 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     for (const auto& share : shares) all += share.second;
     for (const auto& [name, share] : shares) fmt::print(stderr, "  {:5.1f}% of the samples: {}\n", all ? 100.0 * share / all : 0.0, name);
     if (film.stopped_early)
-      fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n", caught ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM") : "the time limit",
-                 film.samples_done, settings.samples_per_pixel, options.checkpoint.empty() ? "" : fmt::format("; film saved to {}", options.checkpoint));
+      fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n",
+                 caught ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM") : "the time limit", film.samples_done, settings.samples_per_pixel,
+                 options.checkpoint.empty() ? "" : fmt::format("; film saved to {}", options.checkpoint));
     if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
   }
   if (options.verbose) phases.print(seconds_since(program_start));
   return caught ? 128 + caught : 0;
 }
-
 
 int run_render(const RenderOptions& options, Clock::time_point program_start, Distributed* mpi = nullptr) {
   // Fail on an unusable output name or place before spending time on the render.
@@ -282,8 +290,8 @@ void serve_with(const RenderOptions& options, Distributed& mpi) {
     const SceneDescription scene = load_scene_file(options.scene);
     const RenderSettings settings = effective_settings(options, scene);
     flat.emplace(flatten_scene<T>(scene, settings));
-    backend = make_render_backend<T>(options.backend, parse_device_list(options.device, options.backend), options.threads,
-                                     integrator_of(options), options.sycl_device);
+    backend = make_render_backend<T>(options.backend, parse_device_list(options.device, options.backend), options.threads, integrator_of(options),
+                                     options.sycl_device);
     backend->upload(*flat);
     width = settings.width;
     mpi.report_ready(render_key(options, scene, settings).hash, backend->name());
@@ -362,12 +370,13 @@ int bench_with(const RenderOptions& options, const SceneDescription& scene, cons
   // The wall clock too, which compares a device's events with paths that have none (several devices in bands).
   std::sort(wall_seconds.begin(), wall_seconds.end());
   const double wall_median = wall_seconds[wall_seconds.size() / 2];
-  fmt::print("scene {} | {}x{} {} spp depth {} | backend {} | {} | median of {}: {:.4f} s ({} timing) | {}samples/s | {}rays/s | "
-             "{:.2f} rays/sample | dropped {} | scene {:.1f} MB | wall-clock median {:.4f} s{}\n",
-             scene.source, settings.width, settings.height, settings.samples_per_pixel, settings.max_depth, backend->name(),
-             options.number_format, options.runs, median, backend->device_seconds() ? "device-event" : "wall-clock",
-             format_rate(stats.samples / median), format_rate(stats.rays / median), static_cast<double>(stats.rays) / stats.samples,
-             stats.dropped_samples, flat.bytes() / 1e6, wall_median, stages);
+  fmt::print(
+      "scene {} | {}x{} {} spp depth {} | backend {} | {} | median of {}: {:.4f} s ({} timing) | {}samples/s | {}rays/s | "
+      "{:.2f} rays/sample | dropped {} | scene {:.1f} MB | wall-clock median {:.4f} s{}\n",
+      scene.source, settings.width, settings.height, settings.samples_per_pixel, settings.max_depth, backend->name(), options.number_format,
+      options.runs, median, backend->device_seconds() ? "device-event" : "wall-clock", format_rate(stats.samples / median),
+      format_rate(stats.rays / median), static_cast<double>(stats.rays) / stats.samples, stats.dropped_samples, flat.bytes() / 1e6, wall_median,
+      stages);
   return 0;
 }
 
@@ -401,11 +410,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   // Command-line mistakes get the same one-line form and exit status as every other input error.
   app.failure_message([](const CLI::App*, const CLI::Error& e) { return std::string("pathtracer: error: ") + e.what() + "\n"; });
-  app.footer(fmt::format("Exit status: 0 on success; {} on any error: bad input (command line, scene file, images, output place, a\n"
-                         "failed write) or a failing device, with one line 'pathtracer: error: ...' on stderr; 130 or 143 when a\n"
-                         "render stopped by SIGINT or SIGTERM has written what it had. Images are at most\n"
-                         "{} pixels a side and {} pixels in all.",
-                         kErrorExitCode, kMaxImageSide, kMaxImagePixels));
+  app.footer(
+      fmt::format("Exit status: 0 on success; {} on any error: bad input (command line, scene file, images, output place, a\n"
+                  "failed write) or a failing device, with one line 'pathtracer: error: ...' on stderr; 130 or 143 when a\n"
+                  "render stopped by SIGINT or SIGTERM has written what it had. Images are at most\n"
+                  "{} pixels a side and {} pixels in all.",
+                  kErrorExitCode, kMaxImageSide, kMaxImagePixels));
 
   RenderOptions options;
   CLI::App* render = app.add_subcommand("render", "Render a scene file to an image (PNG, PFM or OpenEXR, by extension)");
@@ -419,23 +429,30 @@ int main(int argc, char** argv) {
     command->add_option("--seed", options.seed, "Random seed");
     command->add_option("--threads", options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
     command->add_option("--backend", options.backend, "Backend: " + backend_choices())->check(CLI::IsMember(backend_names()))->capture_default_str();
-    command->add_option("--device", options.device,
-                        "Device: a GPU index; all (every GPU, or the CPU); local-rank (the GPU of this MPI rank on its node); cpu; or "
-                        "several joined by commas (0,2,3 or 0,cpu; cpu,cpu: CPU devices sharing --threads), rendering one image in bands "
-                        "(docs/distributed.md)")
+    command
+        ->add_option("--device", options.device,
+                     "Device: a GPU index; all (every GPU, or the CPU); local-rank (the GPU of this MPI rank on its node); cpu; or "
+                     "several joined by commas (0,2,3 or 0,cpu; cpu,cpu: CPU devices sharing --threads), rendering one image in bands "
+                     "(docs/distributed.md)")
         ->capture_default_str();
-    command->add_option("--sycl-device", options.sycl_device, "Device index for the sycl backend (see `pathtracer devices`; default: the runtime's choice)")
+    command
+        ->add_option("--sycl-device", options.sycl_device,
+                     "Device index for the sycl backend (see `pathtracer devices`; default: the runtime's choice)")
         ->check(CLI::NonNegativeNumber);
-    command->add_option("--integrator", options.integrator, "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
+    command
+        ->add_option("--integrator", options.integrator,
+                     "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
         ->check(CLI::IsMember({"auto", "megakernel", "wavefront"}))
         ->capture_default_str();
-    command->add_option("--light-sampling", options.light_sampling,
-                        "nee (next-event estimation: a shadow ray to a light at every diffuse bounce, with multiple importance sampling) "
-                        "or none (lights found only by scattering); the scene's, else nee, if omitted")
+    command
+        ->add_option("--light-sampling", options.light_sampling,
+                     "nee (next-event estimation: a shadow ray to a light at every diffuse bounce, with multiple importance sampling) "
+                     "or none (lights found only by scattering); the scene's, else nee, if omitted")
         ->check(CLI::IsMember({"nee", "none"}));
-    command->add_option("--sampler", options.sampler,
-                        "sobol (each pixel's samples stratified in every dimension: Owen-scrambled Sobol points) or independent "
-                        "(uncorrelated random numbers); the scene's, else sobol, if omitted")
+    command
+        ->add_option("--sampler", options.sampler,
+                     "sobol (each pixel's samples stratified in every dimension: Owen-scrambled Sobol points) or independent "
+                     "(uncorrelated random numbers); the scene's, else sobol, if omitted")
         ->check(CLI::IsMember({"sobol", "independent"}));
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")
         ->check(CLI::IsMember(number_format_names()))
@@ -443,10 +460,12 @@ int main(int argc, char** argv) {
   }
   render->add_option("-o,--output", options.output, "Output image: .png (8-bit sRGB), .pfm or .exr (linear float)")->capture_default_str();
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
-  render->add_flag("-v,--verbose", options.verbose, "Print the time of each phase (device start, scene load, BVH build, upload, render, read-back, encode)");
+  render->add_flag("-v,--verbose", options.verbose,
+                   "Print the time of each phase (device start, scene load, BVH build, upload, render, read-back, encode)");
   render->add_option("--time-limit", options.time_limit, "Stop after this many seconds of rendering (at least one pass) and write the image so far")
       ->check(CLI::PositiveNumber);
-  render->add_option("--checkpoint", options.checkpoint, "Save the film to this file now and then, when stopped, and at the end (resume it with --resume)");
+  render->add_option("--checkpoint", options.checkpoint,
+                     "Save the film to this file now and then, when stopped, and at the end (resume it with --resume)");
   render->add_option("--checkpoint-interval", options.checkpoint_interval, "Seconds between saves of the film")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
@@ -463,7 +482,8 @@ int main(int argc, char** argv) {
   numerics->add_option("--depth", numerics_options.depth, "Maximum path depth (bounces); the scene's if omitted")->check(CLI::Range(1u, kMaxDepth));
   numerics->add_option("--seed", numerics_options.seed, "Random seed; the scene's if omitted");
   numerics->add_option("--threads", numerics_options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
-  numerics->add_option("--formats", numerics_options.formats, "Formats to compare (default: all built in)")->check(CLI::IsMember(number_format_names()));
+  numerics->add_option("--formats", numerics_options.formats, "Formats to compare (default: all built in)")
+      ->check(CLI::IsMember(number_format_names()));
 
   CLI::App* devices = app.add_subcommand("devices", "List the devices of every backend built in");
 

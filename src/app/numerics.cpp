@@ -10,11 +10,11 @@
 
 #include <fmt/format.h>
 
-#include "backends/registry.hpp"
 #include "app/image_size.hpp"
+#include "backends/registry.hpp"
 #include "base/atomic_file.hpp"
-#include "film/film.hpp"
 #include "base/number_formats.hpp"
+#include "film/film.hpp"
 #include "loading/scene_loader.hpp"
 
 namespace pt {
@@ -82,14 +82,17 @@ std::string plot_svg(const std::vector<Row>& rows, const std::string& title) {
       "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"680\" height=\"420\" font-family=\"sans-serif\" font-size=\"12\">\n"
       "<rect width=\"680\" height=\"420\" fill=\"white\"/>\n<text x=\"{}\" y=\"22\" font-size=\"14\">{}</text>\n",
       left, title);
-  svg += fmt::format("<line x1=\"{0}\" y1=\"{1}\" x2=\"{2}\" y2=\"{1}\" stroke=\"black\"/><line x1=\"{0}\" y1=\"{1}\" x2=\"{0}\" y2=\"{3}\" stroke=\"black\"/>\n",
-                     left, bottom, right, top);
+  svg += fmt::format(
+      "<line x1=\"{0}\" y1=\"{1}\" x2=\"{2}\" y2=\"{1}\" stroke=\"black\"/><line x1=\"{0}\" y1=\"{1}\" x2=\"{0}\" y2=\"{3}\" stroke=\"black\"/>\n",
+      left, bottom, right, top);
   for (int bits = 0; bits <= 72; bits += 8)
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1}\" x2=\"{0}\" y2=\"{2}\" stroke=\"#ddd\"/><text x=\"{0}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>\n",
-                       x_of(bits), bottom, top, bottom + 16, bits);
+    svg += fmt::format(
+        "<line x1=\"{0}\" y1=\"{1}\" x2=\"{0}\" y2=\"{2}\" stroke=\"#ddd\"/><text x=\"{0}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>\n",
+        x_of(bits), bottom, top, bottom + 16, bits);
   for (double p = 0; p <= ceiling; p += 10)
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1}\" x2=\"{2}\" y2=\"{1}\" stroke=\"#ddd\"/><text x=\"{3}\" y=\"{4}\" text-anchor=\"end\">{5}</text>\n",
-                       left, y_of(p), right, left - 6, y_of(p) + 4, p >= ceiling ? std::string("inf") : fmt::format("{:.0f}", p));
+    svg +=
+        fmt::format("<line x1=\"{0}\" y1=\"{1}\" x2=\"{2}\" y2=\"{1}\" stroke=\"#ddd\"/><text x=\"{3}\" y=\"{4}\" text-anchor=\"end\">{5}</text>\n",
+                    left, y_of(p), right, left - 6, y_of(p) + 4, p >= ceiling ? std::string("inf") : fmt::format("{:.0f}", p));
   svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">bits per value</text>\n", (left + right) / 2, bottom + 34);
   svg += fmt::format("<text x=\"18\" y=\"{0}\" transform=\"rotate(-90 18 {0})\" text-anchor=\"middle\">PSNR against double (dB)</text>\n",
                      (top + bottom) / 2);
@@ -135,8 +138,8 @@ void publish_all(std::vector<AtomicFile>& files) {
   for (AtomicFile& file : files) file.publish();
 }
 
-void write_results(const std::filesystem::path& folder, const SceneDescription& scene, const RenderSettings& settings,
-                   const std::vector<Row>& rows, std::vector<AtomicFile>& files);
+void write_results(const std::filesystem::path& folder, const SceneDescription& scene, const RenderSettings& settings, const std::vector<Row>& rows,
+                   std::vector<AtomicFile>& files);
 
 }  // namespace
 
@@ -207,11 +210,11 @@ int run_numerics(const NumericsOptions& options) {
 namespace {
 
 // The table (to stdout and numerics.csv), the plot and the images, each written to its temporary in `files`.
-void write_results(const std::filesystem::path& folder, const SceneDescription& scene, const RenderSettings& settings,
-                   const std::vector<Row>& rows, std::vector<AtomicFile>& files) {
+void write_results(const std::filesystem::path& folder, const SceneDescription& scene, const RenderSettings& settings, const std::vector<Row>& rows,
+                   std::vector<AtomicFile>& files) {
   std::string csv = "scene,format,bits,scale,rmse,psnr_db,visible_share,saturations,seconds,status\n";
-  const std::string table_head = fmt::format("{:<8} {:>4} {:>10} {:>10} {:>9} {:>9} {:>12} {:>8}  {}\n", "format", "bits", "scale", "rmse",
-                                             "psnr_db", "visible%", "saturations", "seconds", "status");
+  const std::string table_head = fmt::format("{:<8} {:>4} {:>10} {:>10} {:>9} {:>9} {:>12} {:>8}  {}\n", "format", "bits", "scale", "rmse", "psnr_db",
+                                             "visible%", "saturations", "seconds", "status");
   std::string table = table_head;
   for (const Row& r : rows) {
     const std::string status = r.rendered ? "ok" : r.failure;
@@ -230,10 +233,9 @@ void write_results(const std::filesystem::path& folder, const SceneDescription& 
   }
   fmt::print("{}", table);
   files.push_back(write_file_unpublished(folder / "numerics.csv", "the table", csv));
-  files.push_back(write_file_unpublished(
-      folder / "error-vs-bits.svg", "the plot",
-      plot_svg(rows, fmt::format("{}: {}x{}, {} spp", std::filesystem::path(scene.source).filename().string(), settings.width, settings.height,
-                                 settings.samples_per_pixel))));
+  files.push_back(write_file_unpublished(folder / "error-vs-bits.svg", "the plot",
+                                         plot_svg(rows, fmt::format("{}: {}x{}, {} spp", std::filesystem::path(scene.source).filename().string(),
+                                                                    settings.width, settings.height, settings.samples_per_pixel))));
 
   // Every rendered format left to right in table order, 4 black pixels apart.
   std::vector<const Row*> shown;

@@ -20,8 +20,8 @@ u32 min_band_rows(u32 height, std::size_t workers) {
   return static_cast<u32>(std::max<u64>(1, height / (32 * static_cast<u64>(workers))));
 }
 
-bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<const FilmPixel> from,
-                  std::span<FilmPixel> into, u32 min_rows, std::span<u64> shares, std::span<double> row_costs, const PassStop& stop) {
+bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into,
+                  u32 min_rows, std::span<u64> shares, std::span<double> row_costs, const PassStop& stop) {
   if (workers.empty()) throw BackendError("no device to render on");
   const std::size_t pixels = static_cast<std::size_t>(width) * work.row_count;
   if (from.size() != pixels || into.size() != pixels) throw BackendError("a film of the wrong size for its bands");
@@ -37,8 +37,10 @@ bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
     cost.assign(work.row_count + 1, 0.0);
     for (u32 i = 0; i < work.row_count && !cost.empty(); ++i) {
       const double row = row_costs[work.first_row + i];
-      if (row > 0) cost[i + 1] = cost[i] + row;
-      else cost.clear();
+      if (row > 0)
+        cost[i + 1] = cost[i] + row;
+      else
+        cost.clear();
     }
   }
   const u64 halves = 2 * static_cast<u64>(workers.size());

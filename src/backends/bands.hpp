@@ -28,8 +28,7 @@ class BandWorker {
   // result does not depend on which worker renders it. `from` and `into` are the same rows or do not overlap.
   // A worker that waits for the band elsewhere may leave it when `stop` turns true and return false, with `into`
   // unwritten; it then deals with the band still under way itself. True: the band is in `into`.
-  virtual bool render_band(const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into,
-                           const std::function<bool()>& stop) = 0;
+  virtual bool render_band(const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into, const std::function<bool()>& stop) = 0;
   // Whether render_band can leave a band on a stop (a worker waiting for it elsewhere); a device of this process
   // cannot.
   virtual bool leaves_bands() const { return false; }
@@ -61,8 +60,7 @@ u32 min_band_rows(u32 height, std::size_t workers);
 // updates its rows. After a failure no more bands are handed out; the first error is rethrown once every worker
 // has stopped. Returns whether every band was rendered: false where `stop` gave the pass up, and then `into` holds
 // some rows rendered, some not, and is to be dropped (which is why a pass that may stop needs two films).
-bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<const FilmPixel> from,
-                  std::span<FilmPixel> into, u32 min_rows, std::span<u64> shares, std::span<double> row_costs = {},
-                  const PassStop& stop = {});
+bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into,
+                  u32 min_rows, std::span<u64> shares, std::span<double> row_costs = {}, const PassStop& stop = {});
 
 }  // namespace pt

@@ -51,8 +51,10 @@ class DeviceBackend final : public RenderBackend<T> {
   }
 
   void render(u32 first_sample, u32 sample_count) override {
-    if (wavefront_) wavefront_->render(first_sample, sample_count);
-    else megakernel_->render(first_sample, sample_count);
+    if (wavefront_)
+      wavefront_->render(first_sample, sample_count);
+    else
+      megakernel_->render(first_sample, sample_count);
   }
 
   void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) override {
@@ -103,8 +105,10 @@ class DeviceBackend final : public RenderBackend<T> {
 
  private:
   void integrate_rows(u32 first_row, u32 row_count, FilmPixel* film, u32 first_sample, u32 sample_count) {
-    if (wavefront_) wavefront_->render_rows(first_row, row_count, film, first_sample, sample_count);
-    else megakernel_->render_rows(first_row, row_count, film, first_sample, sample_count);
+    if (wavefront_)
+      wavefront_->render_rows(first_row, row_count, film, first_sample, sample_count);
+    else
+      megakernel_->render_rows(first_row, row_count, film, first_sample, sample_count);
   }
 
   D device_;  // first: destroyed last, after everything allocated on it

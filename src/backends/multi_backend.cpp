@@ -61,8 +61,10 @@ void MultiBackend<T>::upload(const FlatScene<T>& scene) {
   for (auto& upload : uploads) upload.get();
   width_ = scene.params.width;
   height_ = scene.params.height;
-  if (alone_) film_.clear();
-  else film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
+  if (alone_)
+    film_.clear();
+  else
+    film_.assign(static_cast<std::size_t>(width_) * height_, FilmPixel{});
   if (others_) next_.assign(film_.size(), FilmPixel{});
   row_costs_.assign(height_, 0.0);
   std::fill(shares_.begin(), shares_.end(), 0);
@@ -106,8 +108,10 @@ void MultiBackend<T>::render_rows(u32 first_row, u32 row_count, u32 first_sample
 
 template <class T>
 void MultiBackend<T>::read_film(std::vector<FilmPixel>& pixels) {
-  if (alone_) devices_[0]->read_film(pixels);
-  else pixels = film_;
+  if (alone_)
+    devices_[0]->read_film(pixels);
+  else
+    pixels = film_;
 }
 
 template <class T>

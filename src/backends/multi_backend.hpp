@@ -53,9 +53,9 @@ class MultiBackend final : public RenderBackend<T> {
   // The longest band when a pass may be given up: a stop waits for bands of this process's devices in flight, and
   // rank 0 must still save and write its image before mpirun's kill a second after the signal.
   static constexpr double kLongestBandSeconds = 0.25;
-  bool others_ = false;          // other processes take bands: passes may be given up (render_unless)
-  std::vector<FilmPixel> film_;  // the whole image's sums, but when alone
-  std::vector<FilmPixel> next_;  // with others: the film of the pass under way, which replaces film_ once complete
+  bool others_ = false;            // other processes take bands: passes may be given up (render_unless)
+  std::vector<FilmPixel> film_;    // the whole image's sums, but when alone
+  std::vector<FilmPixel> next_;    // with others: the film of the pass under way, which replaces film_ once complete
   std::vector<double> row_costs_;  // seconds a sample of each row took when last rendered (render_bands)
   u32 width_ = 0, height_ = 0;
 };

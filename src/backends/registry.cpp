@@ -8,8 +8,8 @@
 #include <tbb/task_arena.h>
 
 #include "backends/cpu/cpu_backend.hpp"
-#include "base/number_formats.hpp"
 #include "backends/multi_backend.hpp"
+#include "base/number_formats.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"
 #endif
@@ -37,8 +37,7 @@ std::string backend_choices() {
 }
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator,
-                                               int sycl_device) {
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator, int sycl_device) {
   if constexpr (is_fixed_v<T>) {
     // The GPU backends are built for float and double only: fixed-point formats are explored on the host.
     (void)device;
@@ -121,8 +120,8 @@ DeviceList parse_device_list(const std::string& text, const std::string& backend
 }
 
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads,
-                                                      Integrator integrator, int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote) {
+std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads, Integrator integrator,
+                                                      int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote) {
   const auto make_one = [&](int entry, unsigned entry_threads) {
     if (entry == kCpuDevice) return make_backend<T>("cpu", entry_threads, 0, integrator);
     return make_backend<T>(backend, entry_threads, entry, integrator, backend == "sycl" ? entry : sycl_device);
@@ -138,10 +137,10 @@ std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend
   return std::make_unique<MultiBackend<T>>(std::move(made), std::move(remote));
 }
 
-#define PT_INSTANTIATE_BACKEND(...)                                                                                                     \
-  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_backend<__VA_ARGS__>(const std::string&, unsigned, int, Integrator, int); \
-  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_render_backend<__VA_ARGS__>(const std::string&, const DeviceList&, unsigned, \
-                                                                                       Integrator, int, std::vector<std::unique_ptr<BandWorker>>);
+#define PT_INSTANTIATE_BACKEND(...)                                                                                                                  \
+  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_backend<__VA_ARGS__>(const std::string&, unsigned, int, Integrator, int);                \
+  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_render_backend<__VA_ARGS__>(const std::string&, const DeviceList&, unsigned, Integrator, \
+                                                                                        int, std::vector<std::unique_ptr<BandWorker>>);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKEND)
 
 void list_devices() {

@@ -16,8 +16,8 @@ std::string backend_choices();
 // "cpu", "cuda", "sycl" or "auto" (the CUDA GPU when one is usable, else the CPU; says which on stderr).
 // `device` is the CUDA GPU; `sycl_device` indexes the SYCL devices (negative: the runtime's default choice).
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device,
-                                               Integrator integrator = Integrator::kMegakernel, int sycl_device = -1);
+std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator = Integrator::kMegakernel,
+                                               int sycl_device = -1);
 
 // What --device names: one device, rendered as ever by its backend alone, or several ("all" or a list, even of
 // one device), which render one image in bands (backends/multi_backend.hpp). Entries are device indices of the
@@ -37,8 +37,8 @@ DeviceList parse_device_list(const std::string& text, const std::string& backend
 // The backend of a DeviceList: the device's own backend for one, else a MultiBackend over one backend per device
 // and the `remote` workers (other processes of an MPI run; with any, a MultiBackend even for one device).
 template <class T>
-std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads,
-                                                      Integrator integrator, int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote = {});
+std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads, Integrator integrator,
+                                                      int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote = {});
 
 // Prints every backend's devices to stdout.
 void list_devices();

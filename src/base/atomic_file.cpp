@@ -86,8 +86,8 @@ AtomicFile::AtomicFile(std::filesystem::path target, std::string what) : target_
   fd_ = injected_create ? -1 : ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd_ < 0) {
     const int error = injected_create ? injected_create : errno;
-    throw InputError(fmt::format("{}: cannot write {}: cannot create a file in '{}': {}", target_.string(), what_, folder.string(),
-                                 std::strerror(error)));
+    throw InputError(
+        fmt::format("{}: cannot write {}: cannot create a file in '{}': {}", target_.string(), what_, folder.string(), std::strerror(error)));
   }
   temporary_slot_ = register_temporary(temporary_.string());
   buffer_.reserve(kBufferBytes);
@@ -126,8 +126,10 @@ void AtomicFile::write(const void* data, std::size_t bytes) {
   if (!failure_.empty() || fd_ < 0) fail(failure_.empty() ? "the file is already closed" : failure_);
   const char* from = static_cast<const char*>(data);
   if (buffer_.size() + bytes > kBufferBytes) flush_buffer();
-  if (bytes >= kBufferBytes) write_all(from, bytes);  // large writes go out at once, uncopied
-  else buffer_.insert(buffer_.end(), from, from + bytes);
+  if (bytes >= kBufferBytes)
+    write_all(from, bytes);  // large writes go out at once, uncopied
+  else
+    buffer_.insert(buffer_.end(), from, from + bytes);
   position_ += bytes;
 }
 

@@ -59,8 +59,7 @@ InputFile InputFile::open(const std::filesystem::path& path) {
   return file;
 }
 
-InputFile::InputFile(InputFile&& other) noexcept
-    : problem_(other.problem_), reason_(std::move(other.reason_)), fd_(std::exchange(other.fd_, -1)) {}
+InputFile::InputFile(InputFile&& other) noexcept : problem_(other.problem_), reason_(std::move(other.reason_)), fd_(std::exchange(other.fd_, -1)) {}
 
 InputFile& InputFile::operator=(InputFile&& other) noexcept {
   if (this != &other) {

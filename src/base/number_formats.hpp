@@ -15,16 +15,21 @@ namespace pt {
 
 template <class T>
 std::string number_format_name() {
-  if constexpr (std::is_same_v<T, float>) return "float";
-  else if constexpr (std::is_same_v<T, double>) return "double";
-  else return fmt::format("q{}.{}", T::kIntegerBits, T::kFractionBits);
+  if constexpr (std::is_same_v<T, float>)
+    return "float";
+  else if constexpr (std::is_same_v<T, double>)
+    return "double";
+  else
+    return fmt::format("q{}.{}", T::kIntegerBits, T::kFractionBits);
 }
 
 // Bits of a value in the format (what a hardware designer pays for).
 template <class T>
 int number_format_bits() {
-  if constexpr (is_fixed_v<T>) return T::kTotalBits;
-  else return static_cast<int>(8 * sizeof(T));
+  if constexpr (is_fixed_v<T>)
+    return T::kTotalBits;
+  else
+    return static_cast<int>(8 * sizeof(T));
 }
 
 inline std::vector<std::string> number_format_names() {

@@ -38,9 +38,8 @@ class ParallelLoop {
     worker();
     for (std::thread& t : pool) t.join();
 #else
-    arena_.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<u32>(0, count, grain), [&](const tbb::blocked_range<u32>& r) { body(r.begin(), r.end()); });
-    });
+    arena_.execute(
+        [&] { tbb::parallel_for(tbb::blocked_range<u32>(0, count, grain), [&](const tbb::blocked_range<u32>& r) { body(r.begin(), r.end()); }); });
 #endif
   }
 

@@ -39,9 +39,8 @@ LinearImage resolve_film(std::span<const FilmPixel> film, u32 width, u32 height)
 }
 
 ImageRows film_rows(const RenderedFilm& film) {
-  return ImageRows{film.width, film.height, [&film](u32 first_row, u32 row_count, float* rgb) {
-                     resolve_rows(film.pixels(), film.width, first_row, row_count, rgb);
-                   }};
+  return ImageRows{film.width, film.height,
+                   [&film](u32 first_row, u32 row_count, float* rgb) { resolve_rows(film.pixels(), film.width, first_row, row_count, rgb); }};
 }
 
 RenderStats film_stats(std::span<const FilmPixel> film, u32 samples_per_pixel) {
@@ -89,8 +88,7 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
   };
   while (done < total) {
     // A time limit stops a render only after it has made a pass, so that even a tiny limit leaves an image.
-    if (stop() ||
-        (control.time_limit_seconds > 0 && done > first && seconds_since(start) >= control.time_limit_seconds)) {
+    if (stop() || (control.time_limit_seconds > 0 && done > first && seconds_since(start) >= control.time_limit_seconds)) {
       stopped = true;
       break;
     }
@@ -142,9 +140,9 @@ RenderResult render_scene(RenderBackend<T>& backend, const FlatScene<T>& scene, 
   return result;
 }
 
-#define PT_INSTANTIATE_RENDER(...)                                                                                                     \
+#define PT_INSTANTIATE_RENDER(...)                                                                                                    \
   template RenderedFilm render_film<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&, \
-                                                 const RenderControl&);                                                           \
+                                                 const RenderControl&);                                                               \
   template RenderResult render_scene<__VA_ARGS__>(RenderBackend<__VA_ARGS__>&, const FlatScene<__VA_ARGS__>&, const ProgressCallback&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_RENDER)
 

@@ -11,14 +11,14 @@
 namespace pt {
 
 struct RenderStats {
-  double seconds = 0;           // wall time of the rendering passes
-  double upload_seconds = 0;    // copying the scene to the backend and clearing its film
-  double read_back_seconds = 0; // copying the film back
-  double resolve_seconds = 0;   // turning the film into an image
-  u64 samples = 0;              // camera samples traced
-  u64 rays = 0;                 // closest-hit queries
-  u64 dropped_samples = 0;      // non-finite samples left out of their pixel
-  u64 saturations = 0;          // fixed-point results clamped to the format's range (0 for float and double)
+  double seconds = 0;            // wall time of the rendering passes
+  double upload_seconds = 0;     // copying the scene to the backend and clearing its film
+  double read_back_seconds = 0;  // copying the film back
+  double resolve_seconds = 0;    // turning the film into an image
+  u64 samples = 0;               // camera samples traced
+  u64 rays = 0;                  // closest-hit queries
+  u64 dropped_samples = 0;       // non-finite samples left out of their pixel
+  u64 saturations = 0;           // fixed-point results clamped to the format's range (0 for float and double)
 };
 
 struct Progress {
@@ -39,13 +39,13 @@ u32 next_pass_samples(double elapsed, u32 samples, u32 last, double pass_seconds
 // is checked between passes (half a second apart, or a few seconds where a pass sends the film to other processes),
 // and a stop also during a pass where the backend can give that pass up: a stop takes effect within about a second.
 struct RenderControl {
-  std::function<bool()> stop_requested;      // an interrupt: stop after the pass under way, or give it up
-  double time_limit_seconds = 0;             // > 0: stop once the passes have taken this long
-  double checkpoint_interval_seconds = 0;    // > 0 (with `checkpoint`): save the film about this often
+  std::function<bool()> stop_requested;    // an interrupt: stop after the pass under way, or give it up
+  double time_limit_seconds = 0;           // > 0: stop once the passes have taken this long
+  double checkpoint_interval_seconds = 0;  // > 0 (with `checkpoint`): save the film about this often
   // Called with the film and its samples per pixel every interval and when the render ends, early or not.
   std::function<void(std::span<const FilmPixel>, u32 samples_done)> checkpoint;
-  std::span<const FilmPixel> start_film;     // a resumed render: the film to go on from, holding
-  u32 start_samples = 0;                     // this many samples per pixel
+  std::span<const FilmPixel> start_film;  // a resumed render: the film to go on from, holding
+  u32 start_samples = 0;                  // this many samples per pixel
 };
 
 // The mean of each pixel's finite samples (black where a pixel has none).

@@ -4,8 +4,8 @@
 #include <cmath>
 
 #include "base/scalar_types.hpp"
-#include "kernel/fixed_point.hpp"
 #include "flat/flat_scene.hpp"
+#include "kernel/fixed_point.hpp"
 
 namespace pt {
 

@@ -137,6 +137,9 @@ T scalar(double v) {
   return static_cast<T>(v);
 }
 
-template <class T> Vec3<T> to(const Vec3d& v) { return {scalar<T>(v.x), scalar<T>(v.y), scalar<T>(v.z)}; }
+template <class T>
+Vec3<T> to(const Vec3d& v) {
+  return {scalar<T>(v.x), scalar<T>(v.y), scalar<T>(v.z)};
+}
 
 }  // namespace pt

@@ -29,7 +29,7 @@ struct FlatScene {
   std::vector<WideBvhNode<T>> mesh_wide_nodes;
   std::vector<Material<T>> materials;
   std::vector<Texture<T>> textures;
-  std::vector<u8> texels;         // sRGB bytes, three a texel
+  std::vector<u8> texels;          // sRGB bytes, three a texel
   std::vector<float> srgb_decode;  // the linear value of each byte
   std::vector<Vec3<T>> perlin_gradients;
   std::vector<u32> perlin_permutations;
@@ -48,7 +48,7 @@ struct FlatScene {
   u32 samples_per_pixel = 0;
   u32 bvh_depth = 0;
   double bvh_seconds = 0;  // time flatten_scene spent building the BVH (reported by `render --verbose`)
-  double scale = 1;  // every length of the scene was multiplied by this to fit the scalar type (docs/numerics.md)
+  double scale = 1;        // every length of the scene was multiplied by this to fit the scalar type (docs/numerics.md)
 
   // Host pointers into the arrays above (the CPU backend renders from this directly).
   SceneView<T> view() const;
@@ -68,32 +68,27 @@ Background<T> with_arrays(Background<T> background, const EnvironmentArrays& arr
 // The arrays are placed in the order written here (a braced list is evaluated left to right).
 template <class T, class Place>
 SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
-  return SceneView<T>{place(scene.nodes, "copying the BVH"),
-                      place(scene.wide_nodes, "copying the wide BVH"),
-                      place(scene.primitives, "copying the primitives"),
-                      place(scene.boundaries, "copying the medium boundaries"),
-                      place(scene.triangle_attributes, "copying the triangle attributes"),
-                      MeshData<T>{place(scene.mesh_positions, "copying the mesh vertices"), place(scene.mesh_normals, "copying the mesh normals"),
-                                  place(scene.mesh_uvs, "copying the mesh texture coordinates"), place(scene.mesh_triangles, "copying the mesh triangles"),
-                                  place(scene.meshes, "copying the meshes"), place(scene.instance_transforms, "copying the instance transforms"),
-                                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs"),
-                                  place(scene.mesh_tangents, "copying the mesh tangents")},
-                      place(scene.materials, "copying the materials"),
-                      place(scene.textures, "copying the textures"),
-                      // Every image texture's texels in one array; ImageTexture::offset says where each starts.
-                      TextureData<T>{place(scene.texels, "copying the texels"), place(scene.srgb_decode, "copying the sRGB table"),
-                                     place(scene.perlin_gradients, "copying the noise tables"),
-                                     place(scene.perlin_permutations, "copying the noise tables")},
-                      scene.camera,
-                      with_arrays(scene.background, EnvironmentArrays{place(scene.environment_rgb, "copying the environment image"),
-                                                                      place(scene.environment_density, "copying the environment's distribution"),
-                                                                      place(scene.environment_row_cdf, "copying the environment's distribution"),
-                                                                      place(scene.environment_column_cdfs, "copying the environment's distribution")}),
-                      LightData<T>{place(scene.light_entries, "copying the lights"), place(scene.light_rectangles, "copying the lights"),
-                                   place(scene.primitive_light, "copying the lights"),
-                                   place(scene.light_triangle_cdf, "copying the lights"), static_cast<u32>(scene.light_entries.size()),
-                                   scene.background_light},
-                      scene.params};
+  return SceneView<T>{
+      place(scene.nodes, "copying the BVH"), place(scene.wide_nodes, "copying the wide BVH"), place(scene.primitives, "copying the primitives"),
+      place(scene.boundaries, "copying the medium boundaries"), place(scene.triangle_attributes, "copying the triangle attributes"),
+      MeshData<T>{place(scene.mesh_positions, "copying the mesh vertices"), place(scene.mesh_normals, "copying the mesh normals"),
+                  place(scene.mesh_uvs, "copying the mesh texture coordinates"), place(scene.mesh_triangles, "copying the mesh triangles"),
+                  place(scene.meshes, "copying the meshes"), place(scene.instance_transforms, "copying the instance transforms"),
+                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs"),
+                  place(scene.mesh_tangents, "copying the mesh tangents")},
+      place(scene.materials, "copying the materials"), place(scene.textures, "copying the textures"),
+      // Every image texture's texels in one array; ImageTexture::offset says where each starts.
+      TextureData<T>{place(scene.texels, "copying the texels"), place(scene.srgb_decode, "copying the sRGB table"),
+                     place(scene.perlin_gradients, "copying the noise tables"), place(scene.perlin_permutations, "copying the noise tables")},
+      scene.camera,
+      with_arrays(scene.background, EnvironmentArrays{place(scene.environment_rgb, "copying the environment image"),
+                                                      place(scene.environment_density, "copying the environment's distribution"),
+                                                      place(scene.environment_row_cdf, "copying the environment's distribution"),
+                                                      place(scene.environment_column_cdfs, "copying the environment's distribution")}),
+      LightData<T>{place(scene.light_entries, "copying the lights"), place(scene.light_rectangles, "copying the lights"),
+                   place(scene.primitive_light, "copying the lights"), place(scene.light_triangle_cdf, "copying the lights"),
+                   static_cast<u32>(scene.light_entries.size()), scene.background_light},
+      scene.params};
 }
 
 // Everything kernels read is copied to devices byte for byte.

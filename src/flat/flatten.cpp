@@ -183,9 +183,12 @@ Primitive<T> fit_primitive(const Fit<T>& fit, const SceneDescription& scene, con
           fit(origin.box->max * fit.scale(), Quantity::kLength, key("/max"));
         }
         const std::string where = origin.moved ? ", after the object's transform" : "";
-        const Quad<T> out{fit(q.corner, Quantity::kLength, origin.pointer, "a corner of the box" + where), fit(q.normal, Quantity::kPlain, origin.pointer, "a face's normal"),
-                          fit(q.du * eu, dual, origin.pointer, stored + ", as a face stores it"), fit(q.dv * ev, dual, origin.pointer, stored + ", as a face stores it"),
-                          u_extent, v_extent};
+        const Quad<T> out{fit(q.corner, Quantity::kLength, origin.pointer, "a corner of the box" + where),
+                          fit(q.normal, Quantity::kPlain, origin.pointer, "a face's normal"),
+                          fit(q.du * eu, dual, origin.pointer, stored + ", as a face stores it"),
+                          fit(q.dv * ev, dual, origin.pointer, stored + ", as a face stores it"),
+                          u_extent,
+                          v_extent};
         fit(u, Quantity::kLength, origin.pointer, "an edge of the box, max - min" + where);
         fit(v, Quantity::kLength, origin.pointer, "an edge of the box, max - min" + where);
         fit(q.corner + u + v, Quantity::kLength, origin.pointer, "a corner of the box" + where);
@@ -194,10 +197,12 @@ Primitive<T> fit_primitive(const Fit<T>& fit, const SceneDescription& scene, con
       const std::string turned = origin.moved ? "after the object's transform" : "";
       const std::string stored_u = eu == 1 ? "1 / the length of u" : "u's dual vector times a power of two near its length";
       const std::string stored_v = ev == 1 ? "1 / the length of v" : "v's dual vector times a power of two near its length";
-      const Quad<T> out{position(q.corner, "/corner"), fit(q.normal, Quantity::kPlain, origin.pointer, "the normal"),
+      const Quad<T> out{position(q.corner, "/corner"),
+                        fit(q.normal, Quantity::kPlain, origin.pointer, "the normal"),
                         fit(q.du * eu, eu == 1 ? Quantity::kInverseLength : Quantity::kPlain, key("/u"), stored_u + ", as the quad stores it"),
                         fit(q.dv * ev, ev == 1 ? Quantity::kInverseLength : Quantity::kPlain, key("/v"), stored_v + ", as the quad stores it"),
-                        u_extent, v_extent};
+                        u_extent,
+                        v_extent};
       fit(u, Quantity::kLength, key("/u"), turned);
       fit(v, Quantity::kLength, key("/v"), turned);
       return out;
@@ -265,8 +270,7 @@ std::vector<Quad<double>> box_faces(const BoxSettings& box, const RigidTransform
       {Vec3d{a.x, a.y, a.z}, dx, dz},   // -y
   }};
   std::vector<Quad<double>> quads;
-  for (const auto& f : faces)
-    quads.push_back(make_quad(transform.apply_point(f[0]), transform.apply_vector(f[1]), transform.apply_vector(f[2])));
+  for (const auto& f : faces) quads.push_back(make_quad(transform.apply_point(f[0]), transform.apply_vector(f[1]), transform.apply_vector(f[2])));
   return quads;
 }
 
@@ -311,9 +315,8 @@ Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
   const Vec3d vertical = focus * viewport_height * v;
   const Vec3d lower_left = c.look_from - horizontal / 2.0 - vertical / 2.0 - focus * w;
   const double lens_radius = c.aperture / 2;
-  return Camera<T>{to<T>(c.look_from), to<T>(lower_left), to<T>(horizontal), to<T>(vertical),
-                   to<T>(u * lens_radius),  to<T>(v * lens_radius),  scalar<T>(c.shutter_open),
-                   scalar<T>(c.shutter_close - c.shutter_open)};
+  return Camera<T>{to<T>(c.look_from),     to<T>(lower_left),      to<T>(horizontal),         to<T>(vertical),
+                   to<T>(u * lens_radius), to<T>(v * lens_radius), scalar<T>(c.shutter_open), scalar<T>(c.shutter_close - c.shutter_open)};
 }
 
 // The camera in the kernels' type, its settings checked first (they are lengths even where not stored as such).
@@ -418,7 +421,8 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       const bool box = std::holds_alternative<BoxSettings>(m->boundary);
       boundary_origins.resize(boundaries.size(), PrimitiveOrigin{static_cast<u32>(index), true, !boundary_xf.is_identity(), box});
     }
-    origins.resize(primitives.size(), PrimitiveOrigin{static_cast<u32>(index), false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)});
+    origins.resize(primitives.size(),
+                   PrimitiveOrigin{static_cast<u32>(index), false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)});
   }
   // Meshes: one build per mesh placed once (in world space) and one per mesh placed more often (in its own space),
   // each instance's primitive pointed at its mesh and transform, and its bounds in world space.
@@ -446,8 +450,8 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
         meshes.push_back(build_mesh(scene, use, AffineTransform{}));
       }
       if (use.transform.determinant() == 0)
-        throw InputError(fmt::format("{}: /objects/{}: the transform placing mesh '{}' is singular (a scale of zero)", source_position(scene, "/objects/" + std::to_string(use.object)),
-                                     use.object, meshes[it->second].name));
+        throw InputError(fmt::format("{}: /objects/{}: the transform placing mesh '{}' is singular (a scale of zero)",
+                                     source_position(scene, "/objects/" + std::to_string(use.object)), use.object, meshes[it->second].name));
       instance_mesh[i] = it->second;
       instance_transform[i] = static_cast<u32>(instance_maps.size());
       instance_maps.push_back(use.transform);
@@ -523,14 +527,16 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   flat.scale = scale;
   flat.camera = fit_camera(fit, camera, settings.width, settings.height);
   flat.background = Background<T>{fit(scene.background.horizon, Quantity::kColour, scene.written.horizon),
-                                  fit(scene.background.zenith, Quantity::kColour, scene.written.zenith), {}};
+                                  fit(scene.background.zenith, Quantity::kColour, scene.written.zenith),
+                                  {}};
   if (scene.environment) flatten_environment(fit, scene, flat);
   for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
   for (u32 i = 0; i < scene.materials.size(); ++i) flat.materials.push_back(fit_material(fit, scene.materials[i], fit.material(i)));
   std::vector<Primitive<T>> converted;
   converted.reserve(primitives.size());
   for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, scene, primitives[i], origins[i], open, close));
-  for (std::size_t i = 0; i < boundaries.size(); ++i) flat.boundaries.push_back(fit_primitive(fit, scene, boundaries[i], boundary_origins[i], open, close));
+  for (std::size_t i = 0; i < boundaries.size(); ++i)
+    flat.boundaries.push_back(fit_primitive(fit, scene, boundaries[i], boundary_origins[i], open, close));
   for (std::size_t k = 0; k < attributes.size(); ++k) {
     const TriangleAttributes<double>& a = attributes[k];
     TriangleAttributes<T> out{};
@@ -548,23 +554,25 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   const auto bvh_start = std::chrono::steady_clock::now();
   const BuiltBvh<double> bvh = build_bvh(bounds);
   try {
-  flat.bvh_depth = bvh.depth;
-  flat.nodes.reserve(bvh.nodes.size());
-  for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
-  flat.wide_nodes = build_wide_bvh<T, double>(bvh.nodes);
-  make_perlin_tables(flat);
-  flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
-  flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
+    flat.bvh_depth = bvh.depth;
+    flat.nodes.reserve(bvh.nodes.size());
+    for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
+    flat.wide_nodes = build_wide_bvh<T, double>(bvh.nodes);
+    make_perlin_tables(flat);
+    flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
+    flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
   } catch (const DoesNotFit& e) {
-    throw InputError(fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
-                                 scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
+    throw InputError(
+        fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
+                    scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
   }
   flat.primitives.reserve(primitives.size());
   for (u32 index : bvh.order) flat.primitives.push_back(converted[index]);
   flat.texels = scene.texels;
   flat.srgb_decode = srgb_decode_table();
-  flat.params = RenderParams<T>{settings.width, settings.height, settings.max_depth, settings.seed, settings.roulette_depth,
-                                settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u, settings.sampler};
+  flat.params = RenderParams<T>{settings.width,  settings.height,         settings.max_depth,
+                                settings.seed,   settings.roulette_depth, settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u,
+                                settings.sampler};
   flat.samples_per_pixel = settings.samples_per_pixel;
   build_light_table(flat);
   return flat;
@@ -615,11 +623,11 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
   return found;
 }
 
-#define PT_INSTANTIATE_FLAT_SCENE(...)                                                                                   \
-  template struct FlatScene<__VA_ARGS__>;                                                                               \
-  template FlatScene<__VA_ARGS__> flatten_scene<__VA_ARGS__>(const SceneDescription&, const RenderSettings&, double); \
-  template bool closest_hit_brute_force<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&, const Ray<__VA_ARGS__>&,            \
-                                                     const IntersectContext<__VA_ARGS__>&, Hit<__VA_ARGS__>&);
+#define PT_INSTANTIATE_FLAT_SCENE(...)                                                                                                             \
+  template struct FlatScene<__VA_ARGS__>;                                                                                                          \
+  template FlatScene<__VA_ARGS__> flatten_scene<__VA_ARGS__>(const SceneDescription&, const RenderSettings&, double);                              \
+  template bool closest_hit_brute_force<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&, const Ray<__VA_ARGS__>&, const IntersectContext<__VA_ARGS__>&, \
+                                                     Hit<__VA_ARGS__>&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_FLAT_SCENE)
 
 }  // namespace pt

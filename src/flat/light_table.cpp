@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "base/scalar_types.hpp"
-#include "kernel/fixed_point.hpp"
 #include "flat/flat_scene.hpp"
+#include "kernel/fixed_point.hpp"
 
 namespace pt {
 namespace {
@@ -121,7 +121,8 @@ void build_light_table(FlatScene<T>& scene) {
     std::pair<u32, double> result{kNoLight, total};
     if (total > 0) {
       result.first = static_cast<u32>(scene.light_triangle_cdf.size());
-      for (u32 i = 0; i <= mesh.triangle_count; ++i) scene.light_triangle_cdf.push_back(static_cast<T>(i == mesh.triangle_count ? 1.0 : cumulative[i] / total));
+      for (u32 i = 0; i <= mesh.triangle_count; ++i)
+        scene.light_triangle_cdf.push_back(static_cast<T>(i == mesh.triangle_count ? 1.0 : cumulative[i] / total));
     }
     mesh_distributions.emplace(key, result);
     return result;
@@ -148,17 +149,19 @@ void build_light_table(FlatScene<T>& scene) {
       const double emitted = emitted_luminance(scene, primitive.material);
       if (!(emitted > 0)) continue;
       double area = 0;
-      if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) area = 4 * kPi * std::pow(static_cast<double>(s->radius), 2);
-      else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) area = 4 * kPi * std::pow(static_cast<double>(m->radius), 2);
+      if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape))
+        area = 4 * kPi * std::pow(static_cast<double>(s->radius), 2);
+      else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape))
+        area = 4 * kPi * std::pow(static_cast<double>(m->radius), 2);
       else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
         // In double for fixed point, whose range may not hold the area (a 300 x 265 light in Q16.16).
         if constexpr (is_fixed_v<T>)
-          area = quad_area(Quad<double>{to_double(q->corner), to_double(q->normal), to_double(q->du), to_double(q->dv), static_cast<double>(q->u_extent),
-                                        static_cast<double>(q->v_extent)});
+          area = quad_area(Quad<double>{to_double(q->corner), to_double(q->normal), to_double(q->du), to_double(q->dv),
+                                        static_cast<double>(q->u_extent), static_cast<double>(q->v_extent)});
         else
           area = static_cast<double>(quad_area(*q));
-      }
-      else if (const auto* t = std::get_if<Triangle<T>>(&primitive.shape)) area = triangle_area(to_double(t->edge1), to_double(t->edge2));
+      } else if (const auto* t = std::get_if<Triangle<T>>(&primitive.shape))
+        area = triangle_area(to_double(t->edge1), to_double(t->edge2));
       power = emitted * area;
     }
     if (!(power > 0) || !std::isfinite(power)) continue;

@@ -158,7 +158,8 @@ void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std
     if (m.has_uvs) {
       record.first_uv = static_cast<u32>(flat.mesh_uvs.size());
       for (const auto& uv : m.source->uvs)
-        flat.mesh_uvs.push_back(MeshUv<T>{fit(uv[0], Quantity::kPlain, where, "a texture coordinate"), fit(uv[1], Quantity::kPlain, where, "a texture coordinate")});
+        flat.mesh_uvs.push_back(
+            MeshUv<T>{fit(uv[0], Quantity::kPlain, where, "a texture coordinate"), fit(uv[1], Quantity::kPlain, where, "a texture coordinate")});
     }
     record.first_tangent = kNoAttributes;
     if (m.has_tangents) {
@@ -170,8 +171,9 @@ void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std
       for (u32 v = 0; v < vertex_count; ++v) {
         const Vec3d t = m.tangent(v);
         const double norm = length(t);
-        flat.mesh_tangents.push_back(MeshTangent<T>{fit(norm > 0 && std::isfinite(norm) ? t / norm : Vec3d{}, Quantity::kPlain, where, "a vertex tangent"),
-                                                    fit(m.source->tangents[v][3] < 0 ? -mirror : mirror, Quantity::kPlain, where, "a vertex tangent")});
+        flat.mesh_tangents.push_back(
+            MeshTangent<T>{fit(norm > 0 && std::isfinite(norm) ? t / norm : Vec3d{}, Quantity::kPlain, where, "a vertex tangent"),
+                           fit(m.source->tangents[v][3] < 0 ? -mirror : mirror, Quantity::kPlain, where, "a vertex tangent")});
       }
     }
     record.first_triangle = static_cast<u32>(flat.mesh_triangles.size());
@@ -213,7 +215,8 @@ void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std
     const AffineTransform to_mesh = to_world.inverse();
     auto rows = [&](const AffineTransform& a) {
       AffineRows<T> out;
-      for (int r = 0; r < 3; ++r) out.row[r] = fit(Vec3d{a.linear[r][0], a.linear[r][1], a.linear[r][2]}, Quantity::kPlain, where, "the map placing a mesh");
+      for (int r = 0; r < 3; ++r)
+        out.row[r] = fit(Vec3d{a.linear[r][0], a.linear[r][1], a.linear[r][2]}, Quantity::kPlain, where, "the map placing a mesh");
       out.translation = fit(a.translation, Quantity::kLength, where, "the map placing a mesh");
       return out;
     };
@@ -222,12 +225,13 @@ void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std
     out.to_mesh = rows(to_mesh);
     // Normals go by the inverse transpose: row r is column r of the inverse.
     for (int r = 0; r < 3; ++r)
-      out.normal_rows[r] = fit(Vec3d{to_mesh.linear[0][r], to_mesh.linear[1][r], to_mesh.linear[2][r]}, Quantity::kPlain, where, "the map placing a mesh");
+      out.normal_rows[r] =
+          fit(Vec3d{to_mesh.linear[0][r], to_mesh.linear[1][r], to_mesh.linear[2][r]}, Quantity::kPlain, where, "the map placing a mesh");
     flat.instance_transforms.push_back(out);
   }
 }
 
-#define PT_INSTANTIATE_MESH_TABLES(...)                                                                                 \
+#define PT_INSTANTIATE_MESH_TABLES(...)                                                                                            \
   template void flatten_meshes<__VA_ARGS__>(const Fit<__VA_ARGS__>&, std::vector<MeshBuild>&, const std::vector<AffineTransform>&, \
                                             const std::vector<u32>&, FlatScene<__VA_ARGS__>&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_MESH_TABLES)

@@ -36,7 +36,7 @@ struct MeshBuild {
   bool identity = true;    // placed is the identity
   bool has_normals = false, has_uvs = false;
   bool has_tangents = false;  // the file's vertex tangents, kept where a triangle's material has a normal map
-  double scale = 1;  // flatten_scene's scale, applied to lengths as they are converted
+  double scale = 1;           // flatten_scene's scale, applied to lengths as they are converted
   std::vector<MeshTriangle> triangles;
   // Float boxes where the mesh's coordinates fit float (half the memory of double; exact corners for float
   // vertices, rounded outward otherwise), double boxes beyond.

@@ -210,7 +210,7 @@ std::vector<WideBvhNode<T>> build_wide_bvh(const std::vector<BvhNode<S>>& binary
   return WideBvhBuilder<T, S>(binary, scale).build();
 }
 
-#define PT_INSTANTIATE_WIDE_BVH(...)                                                                                    \
+#define PT_INSTANTIATE_WIDE_BVH(...)                                                                                             \
   template std::vector<WideBvhNode<__VA_ARGS__>> build_wide_bvh<__VA_ARGS__, float>(const std::vector<BvhNode<float>>&, double); \
   template std::vector<WideBvhNode<__VA_ARGS__>> build_wide_bvh<__VA_ARGS__, double>(const std::vector<BvhNode<double>>&, double);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_WIDE_BVH)

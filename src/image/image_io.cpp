@@ -36,13 +36,9 @@
 
 namespace pt {
 
-float srgb_to_linear(float c) {
-  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
+float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
-float linear_to_srgb(float c) {
-  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
-}
+float linear_to_srgb(float c) { return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f; }
 
 namespace {
 
@@ -86,9 +82,10 @@ bool jpeg_huffman_tables_fit(std::span<const unsigned char> bytes) {
 // `subject` names the image in messages: "image file 'PATH'" or "image 'NAME'".
 void check_texture_size(const std::string& subject, u64 width, u64 height) {
   if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxTextureTexels)
-    throw InputError(fmt::format("{} is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
-                                 "see docs/scene-format.md)",
-                                 subject, width, height, kMaxTextureSide, kMaxTextureTexels));
+    throw InputError(
+        fmt::format("{} is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
+                    "see docs/scene-format.md)",
+                    subject, width, height, kMaxTextureSide, kMaxTextureTexels));
 }
 
 // Where an image's bytes come from: a file, which stb reads through its FILE interface (so that only the header is
@@ -195,7 +192,8 @@ InputFile open_image_file(const std::filesystem::path& path) {
     case InputFile::Problem::kNone: break;
     case InputFile::Problem::kMissing: throw InputError(fmt::format("image file '{}' does not exist", path.string()));
     case InputFile::Problem::kFolder: throw InputError(fmt::format("cannot read image file '{}': it is a folder, not a file", path.string()));
-    case InputFile::Problem::kNotRegular: throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
+    case InputFile::Problem::kNotRegular:
+      throw InputError(fmt::format("cannot read image file '{}': it is {}, not a regular file", path.string(), input.reason()));
     case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("cannot read image file '{}': {}", path.string(), input.reason()));
   }
   return input;
@@ -229,9 +227,10 @@ namespace {
 // `subject` names the image in messages, as decode_texture's do.
 void check_environment_size(const std::string& subject, u64 width, u64 height) {
   if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxEnvironmentTexels)
-    throw InputError(fmt::format("{} is {}x{} texels, larger than an environment image may be (at most {} per side and {} texels in "
-                                 "all; see docs/scene-format.md)",
-                                 subject, width, height, kMaxTextureSide, kMaxEnvironmentTexels));
+    throw InputError(
+        fmt::format("{} is {}x{} texels, larger than an environment image may be (at most {} per side and {} texels in "
+                    "all; see docs/scene-format.md)",
+                    subject, width, height, kMaxTextureSide, kMaxEnvironmentTexels));
 }
 
 // One line, whatever the library's message holds.
@@ -250,7 +249,8 @@ LinearImage read_exr_environment(const std::filesystem::path& path, const std::s
     check_environment_size(subject, static_cast<u64>(width), static_cast<u64>(height));
     const Imf::ChannelList& channels = file.header().channels();
     const bool rgb = channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");
-    if (!rgb && !channels.findChannel("Y")) throw InputError(fmt::format("cannot read {}: it has neither R, G and B channels nor a Y channel", subject));
+    if (!rgb && !channels.findChannel("Y"))
+      throw InputError(fmt::format("cannot read {}: it has neither R, G and B channels nor a Y channel", subject));
     LinearImage image;
     image.width = static_cast<u32>(width);
     image.height = static_cast<u32>(height);
@@ -327,10 +327,14 @@ LinearImage read_environment_image(const std::filesystem::path& path) {
     const float value = image.rgb[i];
     if (std::isfinite(value) && value >= 0.0f) continue;
     const std::size_t texel = i / 3;
-    throw InputError(fmt::format("{}: texel ({}, {}) (column, row from the top left) has {} {}; an environment image needs finite values of at "
-                                 "least 0",
-                                 subject, texel % image.width, texel / image.width, "RGB"[i % 3] == 'R' ? "red" : "RGB"[i % 3] == 'G' ? "green" : "blue",
-                                 value));
+    throw InputError(
+        fmt::format("{}: texel ({}, {}) (column, row from the top left) has {} {}; an environment image needs finite values of at "
+                    "least 0",
+                    subject, texel % image.width, texel / image.width,
+                    "RGB"[i % 3] == 'R'   ? "red"
+                    : "RGB"[i % 3] == 'G' ? "green"
+                                          : "blue",
+                    value));
   }
   return image;
 }
@@ -424,8 +428,10 @@ void write_png(AtomicFile& file, const ImageRows& image) {
     stream.next_out = part.deflated.data();
     stream.avail_out = static_cast<uInt>(part.deflated.size());
     part.status = deflate(&stream, band + 1 == bands ? Z_FINISH : Z_SYNC_FLUSH);
-    if ((band + 1 == bands && part.status == Z_STREAM_END) || (band + 1 < bands && part.status == Z_OK)) part.status = Z_OK;
-    else if (part.status == Z_OK) part.status = Z_BUF_ERROR;
+    if ((band + 1 == bands && part.status == Z_STREAM_END) || (band + 1 < bands && part.status == Z_OK))
+      part.status = Z_OK;
+    else if (part.status == Z_OK)
+      part.status = Z_BUF_ERROR;
     part.deflated.resize(part.deflated.size() - stream.avail_out);
     deflateEnd(&stream);
   };
@@ -522,9 +528,7 @@ void write_exr(AtomicFile& file, const ImageRows& image) {
 }  // namespace
 
 void check_output_path(const std::filesystem::path& path) {
-  auto refuse = [&](const std::string& reason) {
-    throw InputError(fmt::format("{}: cannot write the image: {}", path.string(), reason));
-  };
+  auto refuse = [&](const std::string& reason) { throw InputError(fmt::format("{}: cannot write the image: {}", path.string(), reason)); };
   std::filesystem::path folder = path.parent_path();
   if (folder.empty()) folder = ".";
   std::error_code error;

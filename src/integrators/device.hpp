@@ -42,8 +42,8 @@ struct ImageKernelProbe {
 //    the latest by the next synchronise() or copy_to_host().
 //  - saturations(): fixed-point saturations counted in kernels so far (0 where kernels do not count them).
 template <class D>
-concept Device = requires(D& device, const D& view, void* pointer, const void* source, std::size_t bytes, const char* what,
-                          u32 count, double* seconds, typename D::Timer timer) {
+concept Device = requires(D& device, const D& view, void* pointer, const void* source, std::size_t bytes, const char* what, u32 count,
+                          double* seconds, typename D::Timer timer) {
   { view.kind() } -> std::convertible_to<std::string>;
   { view.description() } -> std::convertible_to<std::string>;
   { view.host() } -> std::convertible_to<bool>;

@@ -32,7 +32,10 @@ template <Device D, class T>
 class WavefrontIntegrator {
  public:
   WavefrontIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film)
-      : device_(device), memory_(device), scene_(scene), film_(film),
+      : device_(device),
+        memory_(device),
+        scene_(scene),
+        film_(film),
         pool_capacity_(device.host() ? kHostWavefrontPool : kGpuWavefrontPool),
         samples_per_batch_(wavefront_samples_per_batch(pixels(), pool_capacity_)) {
     work_items_ = static_cast<std::size_t>(pixels()) * samples_per_batch_;

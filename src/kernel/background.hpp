@@ -71,7 +71,7 @@ PT_HD inline EnvironmentLookup<T> environment_lookup(const EnvironmentMap<T>& ma
   const T y = clamp(d.y, T(-1), T(1));
   // The texel's position in float: u times the width does not fit the narrow fixed-point formats.
   const float u = static_cast<float>(atan2(d.x, -d.z) * constant<T>(0.159154943091895336)) + 0.5f;  // 1 / (2 pi)
-  const float v = 0.5f - static_cast<float>(asin(y) * constant<T>(0.318309886183790672));          // 1 / pi
+  const float v = 0.5f - static_cast<float>(asin(y) * constant<T>(0.318309886183790672));           // 1 / pi
   const float column_f = u * static_cast<float>(map.width), row_f = v * static_cast<float>(map.height);
   // Clamped, for u = 1 and v = 1 exactly (and the comparison keeps a NaN at 0).
   const u32 column = column_f > 0.0f ? (column_f < static_cast<float>(map.width - 1) ? static_cast<u32>(column_f) : map.width - 1) : 0u;
@@ -92,8 +92,10 @@ PT_HD inline float sample_cdf(const float* cdf, u32 n, float u, u32& index) {
   u32 lo = 0, hi = n;
   while (hi - lo > 1) {
     const u32 mid = lo + (hi - lo) / 2;
-    if (cdf[mid] <= u) lo = mid;
-    else hi = mid;
+    if (cdf[mid] <= u)
+      lo = mid;
+    else
+      hi = mid;
   }
   index = lo;
   const float width = cdf[lo + 1] - cdf[lo];
@@ -113,7 +115,7 @@ PT_HD inline BackgroundSample<T> environment_sample(const EnvironmentMap<T>& map
   const float v = (static_cast<float>(row) + dv) / static_cast<float>(map.height);
   T cos_azimuth, sin_azimuth, cos_theta, sin_theta;
   cos_sin_turns(T(u - 0.5f), cos_azimuth, sin_azimuth);  // the azimuth is 2 pi (u - 0.5)
-  cos_sin_turns(T(0.5f * v), cos_theta, sin_theta);       // theta = pi v
+  cos_sin_turns(T(0.5f * v), cos_theta, sin_theta);      // theta = pi v
   const Vec3<T> in_map{sin_theta * sin_azimuth, cos_theta, -(sin_theta * cos_azimuth)};
   const Vec3<T> direction = map.to_map.apply_inverse(in_map);
   const EnvironmentLookup<T> at = environment_lookup(map, direction);

@@ -39,11 +39,12 @@ struct alignas(32) WideBvhNode {
   u32 leaf_mask, inner_mask;
 };
 
-
 // Closest-hit queries count every hit beyond zero: a ray that leaves a surface starts off it already (spawn_ray),
 // so no minimum distance is needed against self-intersection.
 template <class T>
-PT_HD constexpr T hit_distance_min() { return T(0); }
+PT_HD constexpr T hit_distance_min() {
+  return T(0);
+}
 
 // A ray prepared for slab tests: reciprocal direction, the origin term of the scalar type's slab distance (origin
 // times the reciprocal for floating point), and for each axis the byte offset within a BvhNode of the bound the ray
@@ -179,8 +180,8 @@ struct PlaneRows {
 // Entry distances of the ray into the child boxes of a node, and a mask with bit i set where child i is
 // entered (unused slots included: the node's masks leave them out).
 template <class T>
-PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min,
-                               T closest, T* entry) {
+PT_HD inline u32 wide_box_test(const WideBvhNode<T>& node, const PlaneRows& rows, const Vec3<T>& inv, const Vec3<T>& origin_term, T t_min, T closest,
+                               T* entry) {
   using Traits = ScalarTraits<T>;
   u32 entered = 0;
   for (u32 i = 0; i < kWideBvhWidth; ++i) {
@@ -229,8 +230,8 @@ struct FloatLanes<8> {
 // The six row offsets of a ray were reloaded from the stack at every node (general registers run out in the
 // traversal loop); two more vector operations per axis cost less.
 template <u32 kLanes>
-inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRows&, const Vec3<float>& inv,
-                                   const Vec3<float>& origin_term, float t_min, float closest, float* entry) {
+inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRows&, const Vec3<float>& inv, const Vec3<float>& origin_term,
+                                   float t_min, float closest, float* entry) {
   static_assert(kWideBvhWidth % kLanes == 0);
   using Lanes = typename FloatLanes<kLanes>::Values;
   using Mask = typename FloatLanes<kLanes>::Mask;
@@ -254,7 +255,9 @@ inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRo
     const Lanes far = vmin(vmin(x1, y1), vmin(z1, upper));
     __builtin_memcpy(entry + first, &near, sizeof near);
     const Mask inside = near <= far;  // all ones where entered
-    u32 group = 0;  // bit i: lane i entered
+    u32 group = 0;                    // bit i: lane i entered
+    // One `if constexpr ... else` chain across the preprocessor's branches, kept as written:
+    // clang-format off
 #if defined(__AVX__) && !defined(PT_SYCL_KERNELS)
     if constexpr (kLanes == 8) group = static_cast<u32>(__builtin_ia32_movmskps256(reinterpret_cast<Lanes>(inside))); else
 #endif
@@ -262,13 +265,14 @@ inline u32 wide_box_test_in_groups(const WideBvhNode<float>& node, const PlaneRo
     if constexpr (kLanes == 4) group = static_cast<u32>(__builtin_ia32_movmskps(reinterpret_cast<Lanes>(inside))); else
 #endif
     for (u32 lane = 0; lane < kLanes; ++lane) group |= static_cast<u32>(inside[lane] & 1) << lane;
+    // clang-format on
     entered |= group << first;
   }
   return entered;
 }
 
-inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term,
-                         float t_min, float closest, float* entry) {
+inline u32 wide_box_test(const WideBvhNode<float>& node, const PlaneRows& rows, const Vec3<float>& inv, const Vec3<float>& origin_term, float t_min,
+                         float closest, float* entry) {
   return wide_box_test_in_groups<kBoxTestLanes>(node, rows, inv, origin_term, t_min, closest, entry);
 }
 #endif
@@ -285,8 +289,8 @@ template <class T>
 PT_HD inline WideRay<T> make_wide_ray(const Ray<T>& ray) {
   const Vec3<T> inv = slab_reciprocals(ray);
   return WideRay<T>{inv, slab_origin_terms(ray, inv),
-                    PlaneRows{inv.x < T(0) ? 3u : 0u, inv.y < T(0) ? 4u : 1u, inv.z < T(0) ? 5u : 2u, inv.x < T(0) ? 0u : 3u,
-                              inv.y < T(0) ? 1u : 4u, inv.z < T(0) ? 2u : 5u}};
+                    PlaneRows{inv.x < T(0) ? 3u : 0u, inv.y < T(0) ? 4u : 1u, inv.z < T(0) ? 5u : 2u, inv.x < T(0) ? 0u : 3u, inv.y < T(0) ? 1u : 4u,
+                              inv.z < T(0) ? 2u : 5u}};
 }
 
 // Walks the wide tree rooted at `root`, calling leaf(first, count, closest) as walk_binary does. Each node's boxes
@@ -368,8 +372,8 @@ PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_
 #if defined(__CUDA_ARCH__)
   return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
 #elif defined(PT_ACPP_SINGLE_PASS)
-  __acpp_if_target_device(return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);)
-  return walk_wide(wide_nodes, wide_root, make_wide_ray(ray), closest, leaf);
+  __acpp_if_target_device(return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);) return walk_wide(wide_nodes, wide_root,
+                                                                                                               make_wide_ray(ray), closest, leaf);
 #else
   (void)nodes;
   (void)root;
@@ -476,13 +480,11 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
 
 // Closest hit along the ray (beyond zero, before t_max), over the tree the device walks best (walk_tree).
 template <class T>
-PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
-                              T t_max = largest<T>()) {
+PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, T t_max = largest<T>()) {
 #if defined(__CUDA_ARCH__)
   return closest_hit_binary(scene, ray, context, hit, t_max);
 #elif defined(PT_ACPP_SINGLE_PASS)
-  __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit, t_max);)
-  return closest_hit_wide(scene, ray, context, hit, t_max);
+  __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit, t_max);) return closest_hit_wide(scene, ray, context, hit, t_max);
 #else
   return closest_hit_wide(scene, ray, context, hit, t_max);
 #endif

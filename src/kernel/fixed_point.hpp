@@ -22,8 +22,8 @@ using u128 = unsigned __int128;
 
 // The smallest signed integer holding `bits` bits, and the type its products and quotients are formed in.
 template <int bits>
-using Storage = std::conditional_t<bits <= 8, std::int8_t,
-                                   std::conditional_t<bits <= 16, std::int16_t, std::conditional_t<bits <= 32, std::int32_t, i64>>>;
+using Storage =
+    std::conditional_t<bits <= 8, std::int8_t, std::conditional_t<bits <= 16, std::int16_t, std::conditional_t<bits <= 32, std::int32_t, i64>>>;
 template <class S>
 using Wide = std::conditional_t<(sizeof(S) <= 2), std::int32_t, std::conditional_t<sizeof(S) == 4, i64, i128>>;
 
@@ -210,9 +210,12 @@ class Fixed {
   PT_HD friend constexpr bool operator>=(Fixed a, Fixed b) { return a.raw >= b.raw; }
 };
 
-template <class T> struct IsFixed : std::false_type {};
-template <int I, int F> struct IsFixed<Fixed<I, F>> : std::true_type {};
-template <class T> inline constexpr bool is_fixed_v = IsFixed<T>::value;
+template <class T>
+struct IsFixed : std::false_type {};
+template <int I, int F>
+struct IsFixed<Fixed<I, F>> : std::true_type {};
+template <class T>
+inline constexpr bool is_fixed_v = IsFixed<T>::value;
 
 #if !defined(__CUDA_ARCH__)
 // Saturation events counted on the calling host thread so far.
@@ -244,10 +247,22 @@ struct ScalarTraits<Fixed<I, F>> {
     i64 sr, cr;
     fixed_detail::sin_cos_unit(r, sr, cr);
     switch (static_cast<int>(k & 3)) {  // two's complement: k & 3 is k mod 4 for negative k too
-      case 0: s = sr; c = cr; break;
-      case 1: s = cr; c = -sr; break;
-      case 2: s = -sr; c = -cr; break;
-      default: s = -cr; c = sr; break;
+      case 0:
+        s = sr;
+        c = cr;
+        break;
+      case 1:
+        s = cr;
+        c = -sr;
+        break;
+      case 2:
+        s = -sr;
+        c = -cr;
+        break;
+      default:
+        s = -cr;
+        c = sr;
+        break;
     }
   }
   PT_HD static constexpr T sin(T x) {
@@ -329,8 +344,10 @@ struct ScalarTraits<Fixed<I, F>> {
   PT_HD static constexpr T largest() { return T::from_raw(T::kMaxRaw); }
   // The 24 random bits placed at the binary point: a shift, exact when F >= 24, truncated otherwise.
   PT_HD static constexpr T from_unit_bits(u32 bits24) {
-    if constexpr (F >= 24) return T::from_raw(static_cast<Raw>(static_cast<i64>(bits24) << (F - 24)));
-    else return T::from_raw(static_cast<Raw>(bits24 >> (24 - F)));
+    if constexpr (F >= 24)
+      return T::from_raw(static_cast<Raw>(static_cast<i64>(bits24) << (F - 24)));
+    else
+      return T::from_raw(static_cast<Raw>(bits24 >> (24 - F)));
   }
   // Every operation rounds to within one step (products to half a step, quotients truncate), whatever the size of
   // the values; but unit-size values (directions, normals) carry that step as a relative error into the lengths
@@ -387,7 +404,8 @@ struct ScalarTraits<Fixed<I, F>> {
     uz = T::from_raw(clamp_to_range((static_cast<i128>(sz) << F) / static_cast<i128>(norm)));
     // norm 2^shift has 2F fraction bits; the length F.
     const int down = F - shift;
-    const i128 wide_length = down >= 0 ? (static_cast<i128>(norm) + (down > 0 ? (i128(1) << (down - 1)) : 0)) >> down : static_cast<i128>(norm) << -down;
+    const i128 wide_length =
+        down >= 0 ? (static_cast<i128>(norm) + (down > 0 ? (i128(1) << (down - 1)) : 0)) >> down : static_cast<i128>(norm) << -down;
     length = T::from_raw(T::saturate(wide_length));
   }
   // numerator / denominator (both with the same fraction bits, the denominator nonzero), truncated toward zero as

@@ -80,7 +80,7 @@ PT_HD inline ShadowRay<T> shadow_ray_to(const LightSample<T>& light, const Ray<T
 // nothing to trace.
 template <class T>
 PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathState<T>& path, const Material<T>& material, const SurfacePoint<T>& at,
-                                    const BounceRandom& random, ShadowRay<T>& shadow) {
+                                              const BounceRandom& random, ShadowRay<T>& shadow) {
   LightSample<T> light;
   if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
   const ScatterValue<T> value = material_evaluate(material, at, -path.ray.direction, light.direction, scene.textures, scene.texture_data);
@@ -123,7 +123,8 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
     const T light_density = light.pmf * background_pdf(scene.background, shadow.ray.direction);
     // A direction that rounds into a black texel of an environment image has no density there: it carries nothing.
     if (blocked || !(light_density > T(0))) return Color<T>{};
-    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
+    return shadow.weight * background_radiance(scene.background, shadow.ray.direction) *
+           (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
   }
   if (!blocked) {
     if (!quad_light_reached(scene, light.primitive, shadow.ray, hit)) return Color<T>{};
@@ -132,10 +133,12 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
   }
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
-  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));
+  const SurfacePoint<T> at =
+      describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow.ray, hit, material_needs_uv(material, scene.textures));
   const T light_density = shadow.light_pdf > T(0) ? shadow.light_pdf : light_pdf(scene, shadow.entry, shadow.ray, hit, at);
   if (!(light_density > T(0))) return Color<T>{};
-  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) * (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
+  return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) *
+         (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
 }
 
 // The path hit something: it gathers the emission there, picks a light to sample (next-event estimation: the shadow
@@ -148,7 +151,8 @@ PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, cons
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const bool needs_uv = material_needs_uv(material, scene.textures);
-  const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv, material_needs_tangent(material));
+  const SurfacePoint<T> at =
+      describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv, material_needs_tangent(material));
   // Emission counts with the throughput of the path that reached it (the seed dropped this factor), weighted against
   // light sampling where that could have found it.
   T weight = T(1);

@@ -60,8 +60,10 @@ PT_HD inline u32 choose_mesh_triangle(const LightData<T>& lights, const MeshReco
   u32 lo = 0, hi = mesh.triangle_count;  // the answer lies in [lo, hi)
   while (hi - lo > 1) {
     const u32 mid = lo + (hi - lo) / 2;
-    if (lights.triangle_cdf[cdf_start + mid] <= u) lo = mid;
-    else hi = mid;
+    if (lights.triangle_cdf[cdf_start + mid] <= u)
+      lo = mid;
+    else
+      hi = mid;
   }
   // Skip triangles of zero probability (those that do not emit) that the search may stop on.
   while (lo + 1 < mesh.triangle_count && !(lights.triangle_cdf[cdf_start + lo + 1] > lights.triangle_cdf[cdf_start + lo])) ++lo;
@@ -218,8 +220,8 @@ PT_HD inline bool spherical_rectangle(const RectangleFrame<T>& f, const Vec3<T>&
   // (z0, 0, -x0) normalised; the spherical rectangle's inner angles lie between consecutive ones.
   Vec3<T> n0{}, n1{}, n2{}, n3{};
   T unused;
-  if (!unit_pair(r.z0, -r.y0, n0.y, n0.z, unused) || !unit_pair(-r.z0, r.x1, n1.x, n1.z, unused) ||
-      !unit_pair(-r.z0, r.y1, n2.y, n2.z, unused) || !unit_pair(r.z0, -r.x0, n3.x, n3.z, unused))
+  if (!unit_pair(r.z0, -r.y0, n0.y, n0.z, unused) || !unit_pair(-r.z0, r.x1, n1.x, n1.z, unused) || !unit_pair(-r.z0, r.y1, n2.y, n2.z, unused) ||
+      !unit_pair(r.z0, -r.x0, n3.x, n3.z, unused))
     return false;
   // The inner angles g0..g3 sum to 2 pi + the solid angle; k = 2 pi - g2 - g3. Each lies in (0, pi), so g2 + g3
   // and the solid angle are read off their turns in [0, 2 pi) (two arc tangents for the four angles).
@@ -380,8 +382,10 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
     }
   };
   auto per_area = [&](T area) {
-    if constexpr (ScalarTraits<T>::kExactProducts) return per_area2(area, T(1));
-    else return light.pmf * (t * t) / (cosine * area);
+    if constexpr (ScalarTraits<T>::kExactProducts)
+      return per_area2(area, T(1));
+    else
+      return light.pmf * (t * t) / (cosine * area);
   };
   auto sphere = [&](const Vec3<T>& center, T radius) {
     if constexpr (ScalarTraits<T>::kExactProducts) {
@@ -404,8 +408,10 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
     SphericalRectangle<T> rectangle;
     if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) return light.pmf / rectangle.solid_angle;
     // |u x v| = u_extent (v_extent / normal.(du x dv)) (quad_area).
-    if constexpr (ScalarTraits<T>::kExactProducts) return per_area2(q->u_extent, abs(q->v_extent / dot(q->normal, cross(q->du, q->dv))));
-    else return per_area(quad_area(*q));
+    if constexpr (ScalarTraits<T>::kExactProducts)
+      return per_area2(q->u_extent, abs(q->v_extent / dot(q->normal, cross(q->du, q->dv))));
+    else
+      return per_area(quad_area(*q));
   }
   if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return per_area(triangle_area(tri->edge1, tri->edge2));
   if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {

@@ -9,18 +9,36 @@
 
 namespace pt {
 
-template <class T> struct Lambertian { u32 texture; };
-template <class T> struct Metal { Color<T> albedo; T fuzz; };
-template <class T> struct Dielectric { T ior; Color<T> tint; };
-template <class T> struct DiffuseLight { u32 texture; };
-template <class T> struct Isotropic { u32 texture; };
+template <class T>
+struct Lambertian {
+  u32 texture;
+};
+template <class T>
+struct Metal {
+  Color<T> albedo;
+  T fuzz;
+};
+template <class T>
+struct Dielectric {
+  T ior;
+  Color<T> tint;
+};
+template <class T>
+struct DiffuseLight {
+  u32 texture;
+};
+template <class T>
+struct Isotropic {
+  u32 texture;
+};
 // glTF 2.0's metallic-roughness material (kernel/microfacet.hpp). Both are texture indices, so that constants and
 // maps take one path: `base_color` gives the base colour; `metallic_roughness` gives roughness in its green channel
 // and metallic in its blue one (glTF's layout), its factors folded in (a solid colour (0, roughness, metallic), or
 // an image whose factor is (1, roughness factor, metallic factor)). `normal_map` is a linear image texture holding a
 // tangent-space normal map (glTF's normalTexture), or kNoNormalMap; `normal_scale` multiplies the map's x and y.
 inline constexpr u32 kNoNormalMap = 0xffffffffu;
-template <class T> struct MetallicRoughness {
+template <class T>
+struct MetallicRoughness {
   u32 base_color;
   u32 metallic_roughness;
   u32 normal_map = kNoNormalMap;
@@ -104,8 +122,8 @@ PT_HD inline T schlick_reflectance(T cosine, T eta) {
 // The metallic-roughness parameters at a surface point: its textures looked up. (Light sampling evaluates the BSDF
 // with these, in the frame of metallic_roughness_normal, as scattering does.)
 template <class T>
-PT_HD inline MetallicRoughnessParams<T> metallic_roughness_params(const MetallicRoughness<T>& m, const SurfacePoint<T>& at, const Texture<T>* textures,
-                                                                  const TextureData<T>& data) {
+PT_HD inline MetallicRoughnessParams<T> metallic_roughness_params(const MetallicRoughness<T>& m, const SurfacePoint<T>& at,
+                                                                  const Texture<T>* textures, const TextureData<T>& data) {
   const TexturePoint<T> point{at.u, at.v, at.p};
   const Color<T> metallic_roughness = texture_value(textures[m.metallic_roughness], point, data);
   return MetallicRoughnessParams<T>{texture_value(textures[m.base_color], point, data), metallic_roughness.z, metallic_roughness.y};
@@ -164,8 +182,8 @@ PT_HD inline Vec3<T> ensure_valid_reflection(const Vec3<T>& ng, const Vec3<T>& w
 // valid by ensure_valid_reflection. The one definition scattering and evaluation both use, so that a direction is
 // sampled and evaluated in the same frame.
 template <class T>
-PT_HD inline Vec3<T> metallic_roughness_normal(const MetallicRoughness<T>& m, const SurfacePoint<T>& at, const Vec3<T>& wo, const Texture<T>* textures,
-                                              const TextureData<T>& data) {
+PT_HD inline Vec3<T> metallic_roughness_normal(const MetallicRoughness<T>& m, const SurfacePoint<T>& at, const Vec3<T>& wo,
+                                               const Texture<T>* textures, const TextureData<T>& data) {
   if (m.normal_map == kNoNormalMap || !(length_squared(at.tangent) > T(0))) return at.normal;
   const Color<T> texel = texture_value(textures[m.normal_map], TexturePoint<T>{at.u, at.v, at.p}, data);
   const Vec3<T> mapped = normal_from_map(at.normal, at.tangent, at.handedness, texel, m.normal_scale);
@@ -185,9 +203,8 @@ PT_HD inline bool leaves_on_the_wrong_side(const MetallicRoughness<T>& m, const 
 
 // Samples the next direction. Returns false when the material absorbs the ray (or only emits).
 template <class T>
-PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in, const SurfacePoint<T>& at,
-                                   const Texture<T>* textures, const TextureData<T>& data, const BounceRandom& random,
-                                   Scatter<T>& out) {
+PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in, const SurfacePoint<T>& at, const Texture<T>* textures,
+                                   const TextureData<T>& data, const BounceRandom& random, Scatter<T>& out) {
   struct Sample {
     const Ray<T>& in;
     const SurfacePoint<T>& at;

@@ -33,8 +33,10 @@ PT_HD inline ShadingFrame<T> frame_from_normal(const Vec3<T>& n) {
 // alpha at least 4 sqrt(step), i.e. alpha^2 at least 16 steps.
 template <class T>
 PT_HD inline T ggx_min_alpha() {
-  if constexpr (std::is_floating_point_v<T>) return constant<T>(1e-3);
-  else return max(constant<T>(1e-3), constant<T>(4) * sqrt(ScalarTraits<T>::rounding_step()));
+  if constexpr (std::is_floating_point_v<T>)
+    return constant<T>(1e-3);
+  else
+    return max(constant<T>(1e-3), constant<T>(4) * sqrt(ScalarTraits<T>::rounding_step()));
 }
 
 // glTF's perceptual roughness to GGX alpha: alpha = roughness^2 (glTF 2.0 appendix B), clamped.

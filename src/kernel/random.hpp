@@ -23,10 +23,10 @@ enum RandomDimension : u32 {
   kDimPixel = 0,  // pair: jitter in x and y
   kDimLens = 2,   // pair: point on the lens
   kDimTime = 4,
-  kDimScatter = 8,  // pair: scattered direction
+  kDimScatter = 8,         // pair: scattered direction
   kDimScatterChoice = 10,  // reflect or refract
   kDimRoulette = 12,
-  kDimLobe = 14,  // which lobe of a layered material (metallic-roughness: specular or diffuse) draws the direction
+  kDimLobe = 14,           // which lobe of a layered material (metallic-roughness: specular or diffuse) draws the direction
   kDimLightChoice = 20,    // next-event estimation: the light's index (its bits) ...
   kDimLightAlias = 21,     // ... the alias table's choice between the entry and its alias
   kDimLightPoint = 22,     // pair: the point on the light (or the direction towards it)
@@ -153,9 +153,13 @@ struct BounceRandom {
   const SampleRandom* stream;
   u32 bounce;
   template <class T>
-  PT_HD T uniform(u32 dimension) const { return stream->template uniform<T>(bounce, dimension); }
+  PT_HD T uniform(u32 dimension) const {
+    return stream->template uniform<T>(bounce, dimension);
+  }
   template <class T>
-  PT_HD void uniform_pair(u32 dimension, T& first, T& second) const { stream->uniform_pair(bounce, dimension, first, second); }
+  PT_HD void uniform_pair(u32 dimension, T& first, T& second) const {
+    stream->uniform_pair(bounce, dimension, first, second);
+  }
 };
 
 // Uniformly distributed direction on the unit sphere.

@@ -2,8 +2,8 @@
 // number format (double, fixed point) plugs in by specialising ScalarTraits, without touching any kernel.
 #pragma once
 
-#include <cmath>
 #include <cfloat>
+#include <cmath>
 #include <type_traits>
 
 #include "kernel/platform.hpp"
@@ -108,37 +108,93 @@ struct ScalarTraits<double> {
   PT_HD static double slab_distance(double bound, double reciprocal, double origin_term) { return bound * reciprocal - origin_term; }
   static constexpr bool kExactProducts = false;
   static double quad_extent(double) { return 1; }
-  PT_HD static double index_fraction(u32 index, double offset, u32 count) { return (static_cast<double>(index) + offset) / static_cast<double>(count); }
+  PT_HD static double index_fraction(u32 index, double offset, u32 count) {
+    return (static_cast<double>(index) + offset) / static_cast<double>(count);
+  }
 };
 
 // Short names used throughout the kernels; they only forward to the traits.
-template <class T> PT_HD inline T sqrt(T x) { return ScalarTraits<T>::sqrt(x); }
-template <class T> PT_HD inline T sin(T x) { return ScalarTraits<T>::sin(x); }
-template <class T> PT_HD inline T cos(T x) { return ScalarTraits<T>::cos(x); }
+template <class T>
+PT_HD inline T sqrt(T x) {
+  return ScalarTraits<T>::sqrt(x);
+}
+template <class T>
+PT_HD inline T sin(T x) {
+  return ScalarTraits<T>::sin(x);
+}
+template <class T>
+PT_HD inline T cos(T x) {
+  return ScalarTraits<T>::cos(x);
+}
 // cos and sin of 2 pi turns.
-template <class T> PT_HD inline void cos_sin_turns(T turns, T& c, T& s) { ScalarTraits<T>::cos_sin_turns(turns, c, s); }
-template <class T> PT_HD inline T atan2(T y, T x) { return ScalarTraits<T>::atan2(y, x); }
-template <class T> PT_HD inline T asin(T x) { return ScalarTraits<T>::asin(x); }
-template <class T> PT_HD inline T log(T x) { return ScalarTraits<T>::log(x); }
-template <class T> PT_HD inline T exp(T x) { return ScalarTraits<T>::exp(x); }
-template <class T> PT_HD inline T floor(T x) { return ScalarTraits<T>::floor(x); }
-template <class T> PT_HD inline T abs(T x) { return ScalarTraits<T>::abs(x); }
-template <class T> PT_HD inline T min(T a, T b) { return ScalarTraits<T>::min(a, b); }
-template <class T> PT_HD inline T max(T a, T b) { return ScalarTraits<T>::max(a, b); }
-template <class T> PT_HD inline bool is_finite(T x) { return ScalarTraits<T>::is_finite(x); }
-template <class T> PT_HD inline T largest() { return ScalarTraits<T>::largest(); }
-template <class T> PT_HD inline T clamp(T x, T lo, T hi) { return min(max(x, lo), hi); }
+template <class T>
+PT_HD inline void cos_sin_turns(T turns, T& c, T& s) {
+  ScalarTraits<T>::cos_sin_turns(turns, c, s);
+}
+template <class T>
+PT_HD inline T atan2(T y, T x) {
+  return ScalarTraits<T>::atan2(y, x);
+}
+template <class T>
+PT_HD inline T asin(T x) {
+  return ScalarTraits<T>::asin(x);
+}
+template <class T>
+PT_HD inline T log(T x) {
+  return ScalarTraits<T>::log(x);
+}
+template <class T>
+PT_HD inline T exp(T x) {
+  return ScalarTraits<T>::exp(x);
+}
+template <class T>
+PT_HD inline T floor(T x) {
+  return ScalarTraits<T>::floor(x);
+}
+template <class T>
+PT_HD inline T abs(T x) {
+  return ScalarTraits<T>::abs(x);
+}
+template <class T>
+PT_HD inline T min(T a, T b) {
+  return ScalarTraits<T>::min(a, b);
+}
+template <class T>
+PT_HD inline T max(T a, T b) {
+  return ScalarTraits<T>::max(a, b);
+}
+template <class T>
+PT_HD inline bool is_finite(T x) {
+  return ScalarTraits<T>::is_finite(x);
+}
+template <class T>
+PT_HD inline T largest() {
+  return ScalarTraits<T>::largest();
+}
+template <class T>
+PT_HD inline T clamp(T x, T lo, T hi) {
+  return min(max(x, lo), hi);
+}
 // A bound on the rounding error of `roundings` operations on values of size `magnitude`: relative for floating
 // point, absolute (a step each) for fixed point.
-template <class T> PT_HD inline T rounding_error(T magnitude, T roundings) {
+template <class T>
+PT_HD inline T rounding_error(T magnitude, T roundings) {
   // Constants first, so that they fold. Floating point has no absolute part: adding its zero would still cost an
   // addition per value (x + 0 is not x for x = -0, so the compiler keeps it).
-  if constexpr (std::is_floating_point_v<T>) return magnitude * (roundings * ScalarTraits<T>::rounding_unit());
-  else return magnitude * (roundings * ScalarTraits<T>::rounding_unit()) + roundings * ScalarTraits<T>::rounding_step();
+  if constexpr (std::is_floating_point_v<T>)
+    return magnitude * (roundings * ScalarTraits<T>::rounding_unit());
+  else
+    return magnitude * (roundings * ScalarTraits<T>::rounding_unit()) + roundings * ScalarTraits<T>::rounding_step();
 }
 
 // Constants are written in double and converted once, so that a scalar type only needs a conversion from double.
-template <class T> PT_HD constexpr T constant(double value) { return static_cast<T>(value); }
-template <class T> PT_HD constexpr T pi() { return constant<T>(3.14159265358979323846); }
+template <class T>
+PT_HD constexpr T constant(double value) {
+  return static_cast<T>(value);
+}
+template <class T>
+PT_HD constexpr T pi() {
+  return constant<T>(3.14159265358979323846);
+}
 
 }  // namespace pt

@@ -13,8 +13,8 @@ struct RenderParams {
   u32 width, height;
   u32 max_depth;
   u32 seed;
-  u32 roulette_depth;  // 0: no Russian roulette
-  u32 next_event;      // 1: next-event estimation with multiple importance sampling (kernel/lights.hpp); 0: none
+  u32 roulette_depth;   // 0: no Russian roulette
+  u32 next_event;       // 1: next-event estimation with multiple importance sampling (kernel/lights.hpp); 0: none
   SamplerKind sampler;  // how each pixel's samples are placed (kernel/random.hpp)
 };
 
@@ -46,8 +46,8 @@ template <class T>
 struct LightData {
   const LightEntry<T>* entries;
   const RectangleFrame<T>* rectangles;  // per entry: the frame of a rectangular light (lu = 0 for other lights)
-  const u32* primitive_light;  // per primitive: its entry, or kNoLight where it does not emit
-  const T* triangle_cdf;       // per emitting mesh (and material it is given), triangle_count + 1 values from 0 to 1
+  const u32* primitive_light;           // per primitive: its entry, or kNoLight where it does not emit
+  const T* triangle_cdf;                // per emitting mesh (and material it is given), triangle_count + 1 values from 0 to 1
   u32 count;
   u32 background;  // the background's entry, or kNoLight where it is black
 };

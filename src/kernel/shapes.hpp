@@ -8,13 +8,27 @@
 
 namespace pt {
 
-template <class T> struct Sphere { Vec3<T> center; T radius; };
+template <class T>
+struct Sphere {
+  Vec3<T> center;
+  T radius;
+};
 
 // A sphere whose centre moves linearly: centre(time) = center0 + velocity * (time - time0).
-template <class T> struct MovingSphere { Vec3<T> center0; T radius; Vec3<T> velocity; T time0; };
+template <class T>
+struct MovingSphere {
+  Vec3<T> center0;
+  T radius;
+  Vec3<T> velocity;
+  T time0;
+};
 
 // Vertices p0, p0 + edge1, p0 + edge2; `attributes` indexes per-vertex normals and uvs, or is -1.
-template <class T> struct Triangle { Vec3<T> p0, edge1, edge2; i32 attributes; };
+template <class T>
+struct Triangle {
+  Vec3<T> p0, edge1, edge2;
+  i32 attributes;
+};
 
 template <class T>
 struct TriangleAttributes {
@@ -31,7 +45,11 @@ struct TriangleAttributes {
 // the edge's length (ScalarTraits::quad_extent), so that du and dv have sizes near 1 and keep every fraction bit
 // (1/555, a Cornell wall's, has 7 significant bits in Q16.16), and dividing by the extent is a shift. No stored
 // value has the size of 1/area, and a hit costs two dot products instead of two cross products.
-template <class T> struct Quad { Vec3<T> corner, normal, du, dv; T u_extent, v_extent; };
+template <class T>
+struct Quad {
+  Vec3<T> corner, normal, du, dv;
+  T u_extent, v_extent;
+};
 
 template <class T>
 PT_HD inline Quad<T> make_quad(const Vec3<T>& corner, const Vec3<T>& u, const Vec3<T>& v) {
@@ -75,15 +93,21 @@ inline Quad<T> quad_in(const Quad<double>& q) {
 
 // A constant-density medium inside a convex boundary made of `boundary_count` geometric primitives stored from
 // `first_boundary` in the scene's boundary array. neg_inv_density = -1 / density.
-template <class T> struct ConstantMedium { u32 first_boundary, boundary_count; T neg_inv_density; };
+template <class T>
+struct ConstantMedium {
+  u32 first_boundary, boundary_count;
+  T neg_inv_density;
+};
 
 // ---- Triangle meshes ----
 // A mesh's vertices and triangles lie in arrays shared by all meshes (MeshData): positions, and where the mesh has
 // them, normals and texture coordinates, indexed per mesh from the mesh's first entries. A mesh has its own BVH
 // (built once however often it is placed); the scene's BVH holds instances, each placing a mesh by an affine map,
 // or with none where the mesh's vertices are stored in world space already (a mesh placed once).
-template <class T> struct BvhNode;
-template <class T> struct WideBvhNode;
+template <class T>
+struct BvhNode;
+template <class T>
+struct WideBvhNode;
 
 // Vertex indices within its mesh, and its material.
 struct MeshTriangle {
@@ -91,11 +115,18 @@ struct MeshTriangle {
   u32 material;
 };
 
-template <class T> struct MeshUv { T u, v; };
+template <class T>
+struct MeshUv {
+  T u, v;
+};
 
 // A vertex's tangent as a model file gives it (glTF's TANGENT): its direction (along increasing u) and the sign of
 // the bitangent, sign * normal x direction. Kept only for meshes whose material has a normal map.
-template <class T> struct MeshTangent { Vec3<T> direction; T sign; };
+template <class T>
+struct MeshTangent {
+  Vec3<T> direction;
+  T sign;
+};
 
 inline constexpr u32 kNoAttributes = 0xffffffffu;
 
@@ -106,7 +137,7 @@ struct MeshRecord {
   u32 root;          // its BVH's root in MeshData::nodes, and the same tree's in wide_nodes
   u32 wide_root;
   u32 first_triangle, triangle_count;  // its triangles in MeshData::triangles
-  u32 first_tangent;  // kNoAttributes where it has no vertex tangents (they are derived from the uvs where needed)
+  u32 first_tangent;                   // kNoAttributes where it has no vertex tangents (they are derived from the uvs where needed)
 };
 
 // An affine map as the rows of its 3x4 matrix.
@@ -133,7 +164,11 @@ inline constexpr u32 kNoTransform = 0xffffffffu;
 // An instance's Primitive::material where each triangle keeps its own.
 inline constexpr u32 kMeshMaterials = 0xffffffffu;
 
-template <class T> struct MeshInstance { u32 mesh; u32 transform; };  // transform: into MeshData::transforms, or kNoTransform
+template <class T>
+struct MeshInstance {
+  u32 mesh;
+  u32 transform;
+};  // transform: into MeshData::transforms, or kNoTransform
 
 template <class T>
 struct MeshData {
@@ -388,8 +423,8 @@ PT_HD inline void widen_to_crossings(const Shape<T>& piece, const Ray<T>& ray, T
 // so the line is inside it between its first and its last crossing (at an edge or a corner several faces give the
 // same distance): no tolerance separates the way in from the way out, whatever the scene's scale.
 template <class T>
-PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitive_index, const IntersectContext<T>& context,
-                                   const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitive_index, const IntersectContext<T>& context, const Ray<T>& ray,
+                                   T t_min, T t_max, Hit<T>& hit) {
   T entry = largest<T>(), exit = -largest<T>();
   for (u32 i = 0; i < medium.boundary_count; ++i) widen_to_crossings(context.boundaries[medium.first_boundary + i].shape, ray, entry, exit);
   entry = max(entry, t_min);
@@ -410,11 +445,10 @@ PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitiv
 }
 
 template <class T>
-PT_HD inline bool intersect_primitive(const Primitive<T>& primitive, u32 index, const IntersectContext<T>& context,
-                                      const Ray<T>& ray, T t_min, T t_max, Hit<T>& hit) {
+PT_HD inline bool intersect_primitive(const Primitive<T>& primitive, u32 index, const IntersectContext<T>& context, const Ray<T>& ray, T t_min,
+                                      T t_max, Hit<T>& hit) {
   hit.triangle = 0;  // only a mesh's hits name a triangle
-  if (const auto* medium = std::get_if<ConstantMedium<T>>(&primitive.shape))
-    return intersect_medium(*medium, index, context, ray, t_min, t_max, hit);
+  if (const auto* medium = std::get_if<ConstantMedium<T>>(&primitive.shape)) return intersect_medium(*medium, index, context, ray, t_min, t_max, hit);
   return intersect_geometry(primitive.shape, ray, t_min, t_max, hit);
 }
 
@@ -455,8 +489,10 @@ inline constexpr double kSpawnRoundings = 8;
 // 0.2, of the small spheres resting on it; the radius alone gives 0.12).
 template <class T>
 PT_HD inline Vec3<T> spawn_magnitude(const Vec3<T>& magnitude) {
-  if constexpr (ScalarTraits<T>::kExactProducts) return Vec3<T>{};
-  else return magnitude;
+  if constexpr (ScalarTraits<T>::kExactProducts)
+    return Vec3<T>{};
+  else
+    return magnitude;
 }
 
 template <class T>
@@ -645,9 +681,10 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
           vs[k] = uv.v;
         }
       }
-      TriangleSurface<T> s = triangle_surface(p0, meshes.positions[mesh.first_vertex + tri.vertex[1]] - p0, meshes.positions[mesh.first_vertex + tri.vertex[2]] - p0,
-                                              hit, mesh.first_normal != kNoAttributes ? normals : nullptr, mesh.first_uv != kNoAttributes ? us : nullptr, vs,
-                                              needs_tangent, vertex_tangents ? tangents : nullptr);
+      TriangleSurface<T> s =
+          triangle_surface(p0, meshes.positions[mesh.first_vertex + tri.vertex[1]] - p0, meshes.positions[mesh.first_vertex + tri.vertex[2]] - p0,
+                           hit, mesh.first_normal != kNoAttributes ? normals : nullptr, mesh.first_uv != kNoAttributes ? us : nullptr, vs,
+                           needs_tangent, vertex_tangents ? tangents : nullptr);
       if (instance.transform == kNoTransform) return set_triangle_point(s, s.geometric, s.shading);
       // Brought to the world: the point's error bound grows by the map's absolute rows, plus the rounding of the map
       // itself, counted twice: once here and once where a new ray is taken back into the mesh's space.

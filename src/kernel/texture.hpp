@@ -8,25 +8,48 @@
 
 namespace pt {
 
-template <class T> struct SolidTexture { Color<T> color; };
+template <class T>
+struct SolidTexture {
+  Color<T> color;
+};
 
 // 3-D checker: `odd` where sin(f x) sin(f y) sin(f z) < 0 (the seed's pattern with frequency f), which is cells
 // pi / f wide: stored as cells per unit length, f / pi, worked out once on the host rather than at every lookup.
-template <class T> struct CheckerTexture { Color<T> odd, even; T cells_per_unit; };
+template <class T>
+struct CheckerTexture {
+  Color<T> odd, even;
+  T cells_per_unit;
+};
 
 // Checker in texture coordinates: `columns` x `rows` cells over [0,1]^2.
-template <class T> struct UvCheckerTexture { Color<T> odd, even; T columns, rows; };
+template <class T>
+struct UvCheckerTexture {
+  Color<T> odd, even;
+  T columns, rows;
+};
 
 // An image in the scene's shared texel buffer, starting at texel `offset`, times a colour factor (glTF's base colour
 // and emissive factors; 1 for a scene's own image textures). `linear`: the bytes are data read as they are, byte / 255
 // (glTF's metallic-roughness maps), rather than sRGB-encoded colours.
-template <class T> struct ImageTexture { u32 width, height, offset; T repeat; Color<T> factor; u32 linear = 0; };
+template <class T>
+struct ImageTexture {
+  u32 width, height, offset;
+  T repeat;
+  Color<T> factor;
+  u32 linear = 0;
+};
 
 enum class NoiseKind : u32 { kPerlin = 0, kTurbulence = 1, kMarble = 2 };
 // `scale` multiplies the position the noise reads. The marble's turbulence reads the position itself, in the scene's
 // units as written: `unscale` (1 as written) undoes the lengths' scaling by flatten_scene (fixed point), so that the
 // veins stay where they are.
-template <class T> struct NoiseTexture { T scale; NoiseKind kind; u32 turbulence_depth; T unscale; };
+template <class T>
+struct NoiseTexture {
+  T scale;
+  NoiseKind kind;
+  u32 turbulence_depth;
+  T unscale;
+};
 
 template <class T>
 using Texture = std::variant<SolidTexture<T>, CheckerTexture<T>, UvCheckerTexture<T>, ImageTexture<T>, NoiseTexture<T>>;
@@ -143,7 +166,9 @@ PT_HD inline Color<T> texture_value(const Texture<T>& texture, const TexturePoin
       switch (t.kind) {
         case NoiseKind::kPerlin: value = constant<T>(0.5) * (T(1) + perlin_noise(data, p)); break;
         case NoiseKind::kTurbulence: value = perlin_turbulence(data, p, t.turbulence_depth); break;
-        default: value = constant<T>(0.5) * (T(1) + sin(p.z + constant<T>(10) * perlin_turbulence(data, t.unscale * at.p, t.turbulence_depth))); break;
+        default:
+          value = constant<T>(0.5) * (T(1) + sin(p.z + constant<T>(10) * perlin_turbulence(data, t.unscale * at.p, t.turbulence_depth)));
+          break;
       }
       return Color<T>::splat(value);
     }

@@ -27,8 +27,8 @@ PT_HD inline decltype(auto) visit(F&& f, V& v) {
   // Indices past the last alternative cannot occur; they share the last case so that the switch has no
   // undefined path for the optimiser to exploit.
   switch (v.index()) {
-#define PT_VISIT_CASE(I)                                                \
-  case I:                                                               \
+#define PT_VISIT_CASE(I)                                                   \
+  case I:                                                                  \
     if constexpr (I + 1 < count) return detail::call_alternative<I>(f, v); \
     [[fallthrough]];
     PT_VISIT_CASE(0)
@@ -39,8 +39,7 @@ PT_HD inline decltype(auto) visit(F&& f, V& v) {
     PT_VISIT_CASE(5)
     PT_VISIT_CASE(6)
 #undef PT_VISIT_CASE
-    default:
-      return detail::call_alternative<count - 1>(f, v);
+    default: return detail::call_alternative<count - 1>(f, v);
   }
 }
 

@@ -24,37 +24,37 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
 // arguments. A member added to PathState, Hit or ShadowRay and not listed here fails the size checks below.
 
 // A path between bounces. `item` names the work item (pixel and sample) the path belongs to.
-#define PT_PATH_POOL_FIELDS(FIELD)          \
-  FIELD(Vec3<T>, origin, ray.origin)        \
-  FIELD(Vec3<T>, direction, ray.direction)  \
-  FIELD(T, time, ray.time)                  \
-  FIELD(Color<T>, radiance, radiance)       \
-  FIELD(Color<T>, throughput, throughput)   \
-  FIELD(u32, bounce, bounce)                \
-  FIELD(u32, shadow_rays, shadow_rays)      \
+#define PT_PATH_POOL_FIELDS(FIELD)         \
+  FIELD(Vec3<T>, origin, ray.origin)       \
+  FIELD(Vec3<T>, direction, ray.direction) \
+  FIELD(T, time, ray.time)                 \
+  FIELD(Color<T>, radiance, radiance)      \
+  FIELD(Color<T>, throughput, throughput)  \
+  FIELD(u32, bounce, bounce)               \
+  FIELD(u32, shadow_rays, shadow_rays)     \
   FIELD(T, scatter_pdf, scatter_pdf)
 #define PT_PATH_POOL_TAGS(TAG) TAG(u32, item)
 
 // The closest hit found for each slot by the intersect stage, read by the shade stage.
-#define PT_PATH_HIT_FIELDS(FIELD)   \
-  FIELD(T, t, t)                    \
-  FIELD(T, b1, b1)                  \
-  FIELD(T, b2, b2)                  \
-  FIELD(u32, primitive, primitive)  \
+#define PT_PATH_HIT_FIELDS(FIELD)  \
+  FIELD(T, t, t)                   \
+  FIELD(T, b1, b1)                 \
+  FIELD(T, b2, b2)                 \
+  FIELD(u32, primitive, primitive) \
   FIELD(u32, triangle, triangle)
 #define PT_PATH_HIT_TAGS(TAG)
 
 // The shadow rays the shade stage queued, read by the shadow stage; `item` is the path's work item and `slot` where
 // it went on in the next pool (kNoLight: it ended, and its result is final but for this ray's share).
-#define PT_SHADOW_FIELDS(FIELD)                 \
-  FIELD(Vec3<T>, origin, ray.origin)            \
-  FIELD(Vec3<T>, direction, ray.direction)      \
-  FIELD(T, time, ray.time)                      \
-  FIELD(Color<T>, weight, weight)               \
-  FIELD(T, scatter_pdf, scatter_pdf)            \
-  FIELD(T, distance, distance)                  \
-  FIELD(T, light_pdf, light_pdf)                \
-  FIELD(u32, entry, entry)                      \
+#define PT_SHADOW_FIELDS(FIELD)            \
+  FIELD(Vec3<T>, origin, ray.origin)       \
+  FIELD(Vec3<T>, direction, ray.direction) \
+  FIELD(T, time, ray.time)                 \
+  FIELD(Color<T>, weight, weight)          \
+  FIELD(T, scatter_pdf, scatter_pdf)       \
+  FIELD(T, distance, distance)             \
+  FIELD(T, light_pdf, light_pdf)           \
+  FIELD(u32, entry, entry)                 \
   FIELD(u32, triangle, triangle)
 #define PT_SHADOW_TAGS(TAG) TAG(u32, item) TAG(u32, slot)
 
@@ -65,22 +65,18 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
 #define PT_STORE_FIELD(Type, name, member) name[i] = value.member;
 
 // A structure-of-arrays pool of `State` values with the arrays FIELDS and TAGS list.
-#define PT_SOA_POOL(Pool, State, FIELDS, TAGS)                                                  \
-  FIELDS(PT_DECLARE_ARRAY)                                                                      \
-  TAGS(PT_DECLARE_ARRAY)                                                                        \
-  static constexpr u32 kBytesPerPath = 0 FIELDS(PT_ADD_BYTES) TAGS(PT_ADD_BYTES);               \
-  static_assert(sizeof(State) == 0 FIELDS(PT_ADD_BYTES), #Pool " lists every member of " #State); \
-  /* visit(array) for every array of the pool (host side: allocation) */                        \
-  template <class Visit>                                                                        \
-  void for_each_array(Visit&& visit) {                                                          \
-    FIELDS(PT_VISIT_ARRAY)                                                                      \
-    TAGS(PT_VISIT_ARRAY)                                                                        \
-  }                                                                                             \
-  PT_HD State load(u32 i) const {                                                               \
-    State value;                                                                                \
-    FIELDS(PT_LOAD_FIELD)                                                                       \
-    return value;                                                                               \
-  }                                                                                             \
+#define PT_SOA_POOL(Pool, State, FIELDS, TAGS)                                                                    \
+  FIELDS(PT_DECLARE_ARRAY)                                                                                        \
+  TAGS(PT_DECLARE_ARRAY)                                                                                          \
+  static constexpr u32 kBytesPerPath = 0 FIELDS(PT_ADD_BYTES) TAGS(PT_ADD_BYTES);                                 \
+  static_assert(sizeof(State) == 0 FIELDS(PT_ADD_BYTES), #Pool " lists every member of " #State);                 \
+  /* visit(array) for every array of the pool (host side: allocation) */                                          \
+  template <class Visit>                                                                                          \
+  void for_each_array(Visit&& visit){FIELDS(PT_VISIT_ARRAY) TAGS(PT_VISIT_ARRAY)} PT_HD State load(u32 i) const { \
+    State value;                                                                                                  \
+    FIELDS(PT_LOAD_FIELD)                                                                                         \
+    return value;                                                                                                 \
+  }                                                                                                               \
   PT_HD void store_state(u32 i, const State& value) const { FIELDS(PT_STORE_FIELD) }
 
 // A pool of paths.
@@ -240,8 +236,10 @@ PT_HD inline void wavefront_shadow(const SceneView<T>& scene, const WavefrontVie
   const u32 item = w.shadows.item[queue_index];
   const Color<T> contribution = shadow_contribution(scene, w.shadows.load(queue_index), wavefront_random(scene, w, item));
   const u32 slot = w.shadows.slot[queue_index];
-  if (slot != kNoLight) w.next.radiance[slot] += contribution;
-  else w.results[item].radiance += contribution;
+  if (slot != kNoLight)
+    w.next.radiance[slot] += contribution;
+  else
+    w.results[item].radiance += contribution;
 }
 
 // Stage 6, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does.

@@ -27,8 +27,10 @@ void check_json_nesting(const std::string& file_name, const char* text, std::siz
   for (std::size_t i = 0; i < size; ++i) {
     const char c = text[i];
     if (in_string) {
-      if (c == '\\') ++i;
-      else if (c == '"') in_string = false;
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == '[' || c == '{') {
@@ -68,9 +70,13 @@ namespace {
 constexpr std::array<std::string_view, 1> kExtensionsRead = {"KHR_materials_emissive_strength"};
 
 // The data URIs tinygltf decodes (base64 only).
-constexpr std::array<std::string_view, 7> kDataUriPrefixes = {
-    "data:application/octet-stream;base64,", "data:application/gltf-buffer;base64,", "data:image/jpeg;base64,", "data:image/png;base64,",
-    "data:image/bmp;base64,",                "data:image/gif;base64,",               "data:text/plain;base64,"};
+constexpr std::array<std::string_view, 7> kDataUriPrefixes = {"data:application/octet-stream;base64,",
+                                                              "data:application/gltf-buffer;base64,",
+                                                              "data:image/jpeg;base64,",
+                                                              "data:image/png;base64,",
+                                                              "data:image/bmp;base64,",
+                                                              "data:image/gif;base64,",
+                                                              "data:text/plain;base64,"};
 
 const char* kind_of(const json& v) {
   switch (v.type()) {
@@ -90,9 +96,12 @@ const char* kind_of(const json& v) {
 std::string token(std::string_view key) {
   std::string out;
   for (const char c : key) {
-    if (c == '~') out += "~0";
-    else if (c == '/') out += "~1";
-    else out += c;
+    if (c == '~')
+      out += "~0";
+    else if (c == '/')
+      out += "~1";
+    else
+      out += c;
   }
   return out;
 }
@@ -175,8 +184,8 @@ class Checker {
   }
 
   // An array of indices into one of the file's arrays.
-  std::vector<u64> indices(const json& object, const char* key, const std::string& path, std::size_t count, const char* array,
-                           bool required = false, std::size_t min_items = 0) const {
+  std::vector<u64> indices(const json& object, const char* key, const std::string& path, std::size_t count, const char* array, bool required = false,
+                           std::size_t min_items = 0) const {
     std::vector<u64> out;
     const json* list = array_of(object, key, path, required, min_items);
     if (!list) return out;
@@ -192,8 +201,7 @@ class Checker {
   }
 
   std::optional<double> number(const json& object, const char* key, const std::string& path, bool required,
-                               double min = -std::numeric_limits<double>::infinity(),
-                               double max = std::numeric_limits<double>::infinity()) const {
+                               double min = -std::numeric_limits<double>::infinity(), double max = std::numeric_limits<double>::infinity()) const {
     const json* value = get(object, key, path, required);
     if (!value) return std::nullopt;
     if (!value->is_number()) fail(at(path, key), fmt::format("expected a number, found {}", kind_of(*value)));
@@ -204,8 +212,7 @@ class Checker {
 
   // An array of `length` numbers (any length where 0), each in [min, max].
   std::vector<double> numbers(const json& object, const char* key, const std::string& path, std::size_t length,
-                              double min = -std::numeric_limits<double>::infinity(),
-                              double max = std::numeric_limits<double>::infinity()) const {
+                              double min = -std::numeric_limits<double>::infinity(), double max = std::numeric_limits<double>::infinity()) const {
     std::vector<double> out;
     const json* list = array_of(object, key, path, false);
     if (!list) return out;
@@ -302,7 +309,8 @@ class Checker {
 
   // A URI naming a file beside the model: returns its path as tinygltf asks for it.
   std::string file_uri(const std::string& uri, const std::string& where) const {
-    if (uri.find("://") != std::string::npos) fail(where, fmt::format("'{}' is not a file beside the model (only relative file names and data URIs are read)", uri));
+    if (uri.find("://") != std::string::npos)
+      fail(where, fmt::format("'{}' is not a file beside the model (only relative file names and data URIs are read)", uri));
     const std::string decoded = decode_uri(uri);
     if (decoded.empty() || decoded.find('\0') != std::string::npos) fail(where, fmt::format("'{}' is not a file name", uri));
     return input_.folder_prefix + decoded;
@@ -368,9 +376,12 @@ void check_required_extensions(Checker& c, const json& root) {
     for (const std::string_view r : kExtensionsRead) read = read || name == r;
     if (read) continue;
     std::string what;
-    if (name == "KHR_draco_mesh_compression") what = " (Draco-compressed meshes are not decoded)";
-    else if (name == "KHR_mesh_quantization") what = " (only float positions and normals are read)";
-    else if (name == "KHR_texture_transform") what = " (texture transforms are not applied)";
+    if (name == "KHR_draco_mesh_compression")
+      what = " (Draco-compressed meshes are not decoded)";
+    else if (name == "KHR_mesh_quantization")
+      what = " (only float positions and normals are read)";
+    else if (name == "KHR_texture_transform")
+      what = " (texture transforms are not applied)";
     c.fail(at("/extensionsRequired", i), fmt::format("the file requires the extension {}, which is not read{}", name, what));
   }
 }
@@ -500,8 +511,10 @@ void check_images(Checker& c, const Arrays& arrays, std::size_t views, JsonFacts
     if (uri && view >= 0) c.fail(path, "it has both 'uri' and 'bufferView'");
     if (!uri && view < 0) c.fail(path, "it has neither 'uri' nor 'bufferView'");
     if (!uri) continue;
-    if (uri->compare(0, 5, "data:") == 0) c.data_uri(*uri, at(path, "uri"));
-    else facts.external_images.push_back(c.file_uri(*uri, at(path, "uri")));
+    if (uri->compare(0, 5, "data:") == 0)
+      c.data_uri(*uri, at(path, "uri"));
+    else
+      facts.external_images.push_back(c.file_uri(*uri, at(path, "uri")));
   }
 }
 
@@ -587,7 +600,8 @@ void check_meshes(Checker& c, const Arrays& arrays, JsonFacts& facts) {
           const std::string target_path = at(at(where, "targets"), t);
           const json& target = c.object((*targets)[t], target_path);
           for (auto it = target.begin(); it != target.end(); ++it) {
-            if (!it.value().is_number_unsigned()) c.fail(at(target_path, it.key()), fmt::format("expected an accessor's index, found {}", kind_of(it.value())));
+            if (!it.value().is_number_unsigned())
+              c.fail(at(target_path, it.key()), fmt::format("expected an accessor's index, found {}", kind_of(it.value())));
             c.index_in(it.value().get<u64>(), at(target_path, it.key()), size_of(arrays.accessors), "accessors");
           }
         }
@@ -701,7 +715,8 @@ void check_nodes_and_scenes(Checker& c, const Arrays& arrays) {
       const std::string where = at(at(path, "children"), k);
       if (child == i) c.fail(where, fmt::format("node {} is its own child", i));
       if (parent[child] == static_cast<std::int64_t>(i)) c.fail(where, fmt::format("node {} is listed twice among the children", child));
-      if (parent[child] >= 0) c.fail(where, fmt::format("node {} is already a child of node {} (a node has one parent at most)", child, parent[child]));
+      if (parent[child] >= 0)
+        c.fail(where, fmt::format("node {} is already a child of node {} (a node has one parent at most)", child, parent[child]));
       parent[child] = static_cast<std::int64_t>(i);
       slot[child] = k;
     }

@@ -36,12 +36,11 @@ struct JsonCheckInput {
 
 // What the reader needs from the JSON besides the checks.
 struct JsonFacts {
-  std::vector<std::string> external_buffers;    // folder_prefix + decoded URI of each buffer given by a file reference
-  std::vector<std::string> external_images;     // the same for images
+  std::vector<std::string> external_buffers;     // folder_prefix + decoded URI of each buffer given by a file reference
+  std::vector<std::string> external_images;      // the same for images
   std::vector<std::string> extensions_not_read;  // each extension the file uses that is not read (they warn)
   std::vector<std::size_t> primitives;           // the number of primitives of each mesh
-  std::size_t accessors = 0, buffers = 0, buffer_views = 0, cameras = 0, images = 0, materials = 0, nodes = 0, scenes = 0,
-              textures = 0;
+  std::size_t accessors = 0, buffers = 0, buffer_views = 0, cameras = 0, images = 0, materials = 0, nodes = 0, scenes = 0, textures = 0;
 };
 
 // Throws InputError ("FILE: /JSON/PATH: PROBLEM") at the first fault.

@@ -23,8 +23,8 @@
 #include <tuple>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
+#include <nlohmann/json.hpp>
 
 #include "base/errors.hpp"
 #include "base/input_file.hpp"
@@ -236,10 +236,10 @@ struct Elements {
 // The vertex data of one combination of accessors (POSITION, NORMAL, TEXCOORD), read once per mesh.
 struct VertexSource {
   std::vector<Vec3d> positions;
-  std::vector<Vec3d> normals;                // empty: none, or refused (not unit-length-able)
-  std::vector<std::array<double, 2>> uvs;    // empty: none
+  std::vector<Vec3d> normals;                   // empty: none, or refused (not unit-length-able)
+  std::vector<std::array<double, 2>> uvs;       // empty: none
   std::vector<std::array<double, 4>> tangents;  // empty: none, not asked for (no normal map), or refused
-  std::int64_t base = -1;                            // where it starts in the mesh's arrays, once placed there
+  std::int64_t base = -1;                       // where it starts in the mesh's arrays, once placed there
 };
 
 class Converter {
@@ -250,10 +250,14 @@ class Converter {
   void run(const gltf::JsonFacts& facts) {
     for (const std::string& extension : facts.extensions_not_read) {
       std::string what = "its effect is not rendered";
-      if (extension == "KHR_draco_mesh_compression") what = "Draco-compressed meshes are not decoded; their uncompressed fallback is read";
-      else if (extension == "KHR_texture_transform") what = "texture transforms are not applied";
-      else if (extension == "KHR_lights_punctual") what = "its lights are not placed";
-      else if (extension == "KHR_materials_variants") what = "the default materials are used";
+      if (extension == "KHR_draco_mesh_compression")
+        what = "Draco-compressed meshes are not decoded; their uncompressed fallback is read";
+      else if (extension == "KHR_texture_transform")
+        what = "texture transforms are not applied";
+      else if (extension == "KHR_lights_punctual")
+        what = "its lights are not placed";
+      else if (extension == "KHR_materials_variants")
+        what = "the default materials are used";
       warn("extension " + extension, fmt::format("extension {} is not read: {}", extension, what));
     }
     if (!model_.animations.empty()) warn("animations", "animations are not played: nodes keep their transforms as written");
@@ -432,7 +436,8 @@ class Converter {
     const std::size_t element = e.component_size() * static_cast<std::size_t>(e.components);
     e.stride = view.byteStride != 0 ? view.byteStride : element;
     // Checked with the JSON; checked again against the bytes tinygltf holds.
-    const unsigned __int128 end = static_cast<unsigned __int128>(accessor.byteOffset) + static_cast<unsigned __int128>(e.count - 1) * e.stride + element;
+    const unsigned __int128 end =
+        static_cast<unsigned __int128>(accessor.byteOffset) + static_cast<unsigned __int128>(e.count - 1) * e.stride + element;
     if (e.count == 0 || e.stride < element || end > view.byteLength || view.byteOffset > buffer.data.size() ||
         view.byteLength > buffer.data.size() - view.byteOffset)
       fail(where, fmt::format("accessor {} does not fit in its buffer view", index));
@@ -464,7 +469,8 @@ class Converter {
     source.positions.resize(p.count);
     for (std::size_t i = 0; i < p.count; ++i) {
       const Vec3d v{p.component(i, 0), p.component(i, 1), p.component(i, 2)};
-      if (!is_finite(v)) fail(attributes + "/POSITION", fmt::format("position {} of accessor {} is not finite ({}, {}, {})", i, position, v.x, v.y, v.z));
+      if (!is_finite(v))
+        fail(attributes + "/POSITION", fmt::format("position {} of accessor {} is not finite ({}, {}, {})", i, position, v.x, v.y, v.z));
       source.positions[i] = v;
     }
     if (normal >= 0) {
@@ -475,8 +481,10 @@ class Converter {
       for (std::size_t i = 0; i < n.count; ++i) {
         const Vec3d v{n.component(i, 0), n.component(i, 1), n.component(i, 2)};
         const double l = length(v);
-        if (!std::isfinite(l) || l < 1e-12) ++bad;
-        else source.normals[i] = v / l;
+        if (!std::isfinite(l) || l < 1e-12)
+          ++bad;
+        else
+          source.normals[i] = v / l;
       }
       if (bad > 0) {
         source.normals.clear();
@@ -487,13 +495,16 @@ class Converter {
     }
     if (uv >= 0) {
       const std::string name = fmt::format("TEXCOORD_{}", uv_set);
-      const Elements t = elements(uv, attributes + "/" + name, name.c_str(), TINYGLTF_TYPE_VEC2,
-                                  {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, true);
-      if (t.count != p.count) fail(attributes + "/" + name, fmt::format("accessor {} has {} texture coordinates for {} positions", uv, t.count, p.count));
+      const Elements t =
+          elements(uv, attributes + "/" + name, name.c_str(), TINYGLTF_TYPE_VEC2,
+                   {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT}, true);
+      if (t.count != p.count)
+        fail(attributes + "/" + name, fmt::format("accessor {} has {} texture coordinates for {} positions", uv, t.count, p.count));
       source.uvs.resize(t.count);
       for (std::size_t i = 0; i < t.count; ++i) {
         const double u = t.component(i, 0), v = t.component(i, 1);
-        if (!std::isfinite(u) || !std::isfinite(v)) fail(attributes + "/" + name, fmt::format("texture coordinate {} of accessor {} is not finite", i, uv));
+        if (!std::isfinite(u) || !std::isfinite(v))
+          fail(attributes + "/" + name, fmt::format("texture coordinate {} of accessor {} is not finite", i, uv));
         source.uvs[i] = {u, 1 - v};  // glTF's v runs down the image
       }
     }
@@ -507,8 +518,10 @@ class Converter {
       for (std::size_t i = 0; i < t.count; ++i) {
         const Vec3d v{t.component(i, 0), t.component(i, 1), t.component(i, 2)};
         const double w = t.component(i, 3), l = length(v);
-        if (!std::isfinite(l) || l < 1e-12 || !std::isfinite(w) || w == 0) ++bad;
-        else source.tangents[i] = {v.x / l, v.y / l, v.z / l, w < 0 ? -1.0 : 1.0};
+        if (!std::isfinite(l) || l < 1e-12 || !std::isfinite(w) || w == 0)
+          ++bad;
+        else
+          source.tangents[i] = {v.x / l, v.y / l, v.z / l, w < 0 ? -1.0 : 1.0};
       }
       if (bad > 0) {
         source.tangents.clear();
@@ -525,12 +538,14 @@ class Converter {
     std::size_t count = vertices;
     Elements indices;
     if (primitive.indices >= 0) {
-      indices = elements(primitive.indices, where + "/indices", "indices", TINYGLTF_TYPE_SCALAR,
-                         {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT}, false);
+      indices =
+          elements(primitive.indices, where + "/indices", "indices", TINYGLTF_TYPE_SCALAR,
+                   {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT}, false);
       count = indices.count;
     }
     if (primitive.mode == TINYGLTF_MODE_TRIANGLES && count % 3 != 0)
-      fail(where, fmt::format("{} {} do not make whole triangles (mode TRIANGLES takes three each)", count, primitive.indices >= 0 ? "indices" : "vertices"));
+      fail(where, fmt::format("{} {} do not make whole triangles (mode TRIANGLES takes three each)", count,
+                              primitive.indices >= 0 ? "indices" : "vertices"));
     const std::size_t triangles = primitive.mode == TINYGLTF_MODE_TRIANGLES ? count / 3 : count >= 3 ? count - 2 : 0;
     reserve(0, triangles, where);
     const auto vertex = [&](std::size_t i) -> u32 {
@@ -541,10 +556,13 @@ class Converter {
     };
     std::vector<std::array<u32, 3>> out(triangles);
     for (std::size_t t = 0; t < triangles; ++t) {
-      if (primitive.mode == TINYGLTF_MODE_TRIANGLES) out[t] = {vertex(3 * t), vertex(3 * t + 1), vertex(3 * t + 2)};
+      if (primitive.mode == TINYGLTF_MODE_TRIANGLES)
+        out[t] = {vertex(3 * t), vertex(3 * t + 1), vertex(3 * t + 2)};
       else if (primitive.mode == TINYGLTF_MODE_TRIANGLE_STRIP)  // every other triangle turned back, to keep the winding
-        out[t] = t % 2 == 0 ? std::array<u32, 3>{vertex(t), vertex(t + 1), vertex(t + 2)} : std::array<u32, 3>{vertex(t), vertex(t + 2), vertex(t + 1)};
-      else out[t] = {vertex(t + 1), vertex(t + 2), vertex(0)};  // TRIANGLE_FAN, as glTF orders it
+        out[t] =
+            t % 2 == 0 ? std::array<u32, 3>{vertex(t), vertex(t + 1), vertex(t + 2)} : std::array<u32, 3>{vertex(t), vertex(t + 2), vertex(t + 1)};
+      else
+        out[t] = {vertex(t + 1), vertex(t + 2), vertex(0)};  // TRIANGLE_FAN, as glTF orders it
     }
     return out;
   }
@@ -557,8 +575,10 @@ class Converter {
     for (const int m : used_meshes_)
       for (const tinygltf::Primitive& primitive : model_.meshes[static_cast<std::size_t>(m)].primitives) {
         if (!drawn(primitive)) continue;
-        if (primitive.material >= 0) used.insert(primitive.material);
-        else default_used = true;
+        if (primitive.material >= 0)
+          used.insert(primitive.material);
+        else
+          default_used = true;
       }
     for (const int m : used) {
       material_index_[m] = static_cast<u32>(out_.materials.size());
@@ -581,8 +601,10 @@ class Converter {
     out.name = material.name.empty() ? fmt::format("material {}", index) : material.name;
     const tinygltf::PbrMetallicRoughness& pbr = material.pbrMetallicRoughness;
     const std::vector<double>& base = pbr.baseColorFactor;
-    if (base.size() == 4) out.base_color = {base[0], base[1], base[2]};
-    else out.base_color = {1, 1, 1};
+    if (base.size() == 4)
+      out.base_color = {base[0], base[1], base[2]};
+    else
+      out.base_color = {1, 1, 1};
     out.metallic = pbr.metallicFactor;
     out.roughness = pbr.roughnessFactor;
     out.metallic_roughness_model = true;
@@ -592,7 +614,8 @@ class Converter {
       strength = extension->second.Get("emissiveStrength").GetNumberAsDouble();
     if (material.emissiveFactor.size() == 3)
       out.emission = Vec3d{material.emissiveFactor[0], material.emissiveFactor[1], material.emissiveFactor[2]} * strength;
-    if (pbr.baseColorTexture.index >= 0) out.base_color_texture = texture(pbr.baseColorTexture.index, path + "/pbrMetallicRoughness/baseColorTexture");
+    if (pbr.baseColorTexture.index >= 0)
+      out.base_color_texture = texture(pbr.baseColorTexture.index, path + "/pbrMetallicRoughness/baseColorTexture");
     if (material.emissiveTexture.index >= 0) out.emission_texture = texture(material.emissiveTexture.index, path + "/emissiveTexture");
     if ((material.alphaMode == "BLEND" || material.alphaMode == "MASK") && ((base.size() == 4 && base[3] < 1) || out.base_color_texture >= 0))
       warn("alpha", fmt::format("transparency is not rendered: materials with alphaMode BLEND or MASK (the first: {}, '{}') are drawn opaque, "
@@ -603,8 +626,9 @@ class Converter {
     if (material.normalTexture.index >= 0 && has_image(material.normalTexture.index)) {
       const std::string at = path + "/normalTexture";
       if (material.normalTexture.texCoord != 0) {
-        warn("normal uv set", fmt::format("{}: normal textures read with a texture coordinate set other than TEXCOORD_0 (here TEXCOORD_{}) are not applied",
-                                          at, material.normalTexture.texCoord));
+        warn("normal uv set",
+             fmt::format("{}: normal textures read with a texture coordinate set other than TEXCOORD_0 (here TEXCOORD_{}) are not applied", at,
+                         material.normalTexture.texCoord));
       } else if (uv_set(index) != 0) {
         warn("normal uv set", fmt::format("{}: the normal texture reads TEXCOORD_0 but the material's other textures TEXCOORD_{}: it is not applied",
                                           at, uv_set(index)));
@@ -759,8 +783,10 @@ class Converter {
           if (normals) out.normals.insert(out.normals.end(), source.normals.begin(), source.normals.end());
           if (tangents) out.tangents.insert(out.tangents.end(), source.tangents.begin(), source.tangents.end());
           if (uvs) {
-            if (source.uvs.empty()) out.uvs.resize(out.uvs.size() + source.positions.size(), {0, 0});
-            else out.uvs.insert(out.uvs.end(), source.uvs.begin(), source.uvs.end());
+            if (source.uvs.empty())
+              out.uvs.resize(out.uvs.size() + source.positions.size(), {0, 0});
+            else
+              out.uvs.insert(out.uvs.end(), source.uvs.begin(), source.uvs.end());
           }
         }
         const u32 base = static_cast<u32>(source.base);
@@ -839,9 +865,10 @@ MeshFile read_gltf_file(const std::filesystem::path& path) {
   bool loaded = false;
   try {
     if (binary)
-      loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()), static_cast<unsigned>(bytes.size()),
-                                           folder_prefix);
-    else loaded = loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned>(bytes.size()), folder_prefix);
+      loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                           static_cast<unsigned>(bytes.size()), folder_prefix);
+    else
+      loaded = loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned>(bytes.size()), folder_prefix);
   } catch (const std::bad_alloc&) {
     throw;
   } catch (const std::exception& e) {

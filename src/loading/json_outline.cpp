@@ -123,8 +123,10 @@ class OutlineBuilder {
 
   void add_entry(TextRange range) {
     const Frame& list = frames_.back();
-    if (list.entries == Entries::kObjectList) outline_->objects->push_back(range);
-    else (list.entries == Entries::kMaterialList ? *outline_->materials : *outline_->textures)[list.key] = range;
+    if (list.entries == Entries::kObjectList)
+      outline_->objects->push_back(range);
+    else
+      (list.entries == Entries::kMaterialList ? *outline_->materials : *outline_->textures)[list.key] = range;
   }
 
   // Puts a value into the document where the parser is; returns it (stable until its container closes).

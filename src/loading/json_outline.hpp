@@ -27,7 +27,7 @@ struct JsonOutline {
   // The document; where /objects is an array, or /materials or /textures an object, it holds that list empty,
   // and its entries are listed below.
   nlohmann::json root;
-  std::optional<std::vector<TextRange>> objects;                    // the elements of /objects, in order
+  std::optional<std::vector<TextRange>> objects;                        // the elements of /objects, in order
   std::optional<std::map<std::string, TextRange>> materials, textures;  // by key; a key given twice keeps its last
 };
 

@@ -9,7 +9,7 @@
 namespace pt {
 
 // Limits on one model file, beyond those of textures: larger counts are refused as absurd rather than attempted.
-inline constexpr u64 kMaxMeshTriangles = u64{1} << 28;   // all meshes of a file together
+inline constexpr u64 kMaxMeshTriangles = u64{1} << 28;  // all meshes of a file together
 inline constexpr u64 kMaxMeshVertices = u64{1} << 28;
 
 // Reads a model file by its extension (.obj, .ply, .gltf, .glb). Throws InputError naming the file and, where

@@ -21,8 +21,8 @@
 #include <fmt/format.h>
 
 #include "base/errors.hpp"
-#include "loading/model_files.hpp"
 #include "loading/model_file_input.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt {
 
@@ -167,8 +167,8 @@ class MaterialLibraries : public tinyobj::MaterialReader {
 
   // Called for each name of an `mtllib` statement. tinyobjloader stops at the first library that loads; returning
   // false after loading one makes it read the others of the statement too (its "failed to load" warning is dropped).
-  bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials, std::map<std::string, int>* names,
-                  std::string* warnings, std::string*) override {
+  bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials, std::map<std::string, int>* names, std::string* warnings,
+                  std::string*) override {
     if (name.empty()) return false;  // a trailing blank after the names
     std::filesystem::path path = obj_path_.parent_path() / name;
     if (name.find('\\') != std::string::npos && !std::filesystem::exists(path)) {
@@ -238,14 +238,22 @@ class MaterialLibraries : public tinyobj::MaterialReader {
         const auto [entry, added] = sources.try_emplace(name, MaterialSource{library, lines.number()});
         current = added ? &entry->second : nullptr;  // a second definition of a name is not the one used
       } else if (current) {
-        if (keyword == "Kd") current->has_kd = true;
-        else if (keyword == "Ke") current->has_ke = true;
-        else if (keyword == "Pr") current->has_pr = true;
-        else if (keyword == "Pm") current->has_pm = true;
-        else if (keyword == "norm") current->norm_line = lines.number();
-        else if (keyword == "map_Bump" || keyword == "map_bump" || keyword == "bump") current->bump_line = lines.number();
-        else if (keyword == "map_Pm") current->map_pm_line = lines.number();
-        else if (keyword == "map_Pr") current->map_pr_line = lines.number();
+        if (keyword == "Kd")
+          current->has_kd = true;
+        else if (keyword == "Ke")
+          current->has_ke = true;
+        else if (keyword == "Pr")
+          current->has_pr = true;
+        else if (keyword == "Pm")
+          current->has_pm = true;
+        else if (keyword == "norm")
+          current->norm_line = lines.number();
+        else if (keyword == "map_Bump" || keyword == "map_bump" || keyword == "bump")
+          current->bump_line = lines.number();
+        else if (keyword == "map_Pm")
+          current->map_pm_line = lines.number();
+        else if (keyword == "map_Pr")
+          current->map_pr_line = lines.number();
       }
     }
     return sources;
@@ -326,8 +334,10 @@ bool cut_polygon(const std::vector<Vec3d>& p, std::vector<std::array<u32, 3>>& o
     return sign * ((q[b][0] - q[a][0]) * (q[c][1] - q[a][1]) - (q[b][1] - q[a][1]) * (q[c][0] - q[a][0]));
   };
   if (n == 4 && turn(3, 0, 1) > 0 && turn(0, 1, 2) > 0 && turn(1, 2, 3) > 0 && turn(2, 3, 0) > 0) {
-    if (length_squared(p[2] - p[0]) < length_squared(p[3] - p[1])) out.insert(out.end(), {{0, 1, 2}, {0, 2, 3}});
-    else out.insert(out.end(), {{0, 1, 3}, {1, 2, 3}});
+    if (length_squared(p[2] - p[0]) < length_squared(p[3] - p[1]))
+      out.insert(out.end(), {{0, 1, 2}, {0, 2, 3}});
+    else
+      out.insert(out.end(), {{0, 1, 3}, {1, 2, 3}});
     return true;
   }
   const auto same = [&](u32 a, u32 b) { return q[a][0] == q[b][0] && q[a][1] == q[b][1]; };
@@ -449,11 +459,14 @@ class ObjReader {
           const std::size_t end = line.find("' ]");
           const std::string name = decode_name(std::string(line.substr(12, end == std::string_view::npos ? std::string_view::npos : end - 12)));
           const u64 at = usemtl_line(name);
-          text = fmt::format("{}material '{}' is not defined by a material library; its faces get a default material", at ? fmt::format("line {}: ", at) : "", clip(name));
+          text = fmt::format("{}material '{}' is not defined by a material library; its faces get a default material",
+                             at ? fmt::format("line {}: ", at) : "", clip(name));
         }
         const auto same = std::find_if(kept.begin(), kept.end(), [&](const auto& entry) { return entry.first == text; });
-        if (same == kept.end()) kept.emplace_back(std::move(text), 1);
-        else ++same->second;
+        if (same == kept.end())
+          kept.emplace_back(std::move(text), 1);
+        else
+          ++same->second;
       }
     }
     if (short_faces > 0) warnings_.push_back(fmt::format("{} faces of fewer than 3 vertices skipped", short_faces));
@@ -507,9 +520,12 @@ class ObjReader {
     Lines lines(text_);
     std::string_view line, rest;
     while (lines.next(line)) {
-      if (is_statement(line, "v")) ++seen[0];
-      else if (is_statement(line, "vt")) ++seen[1];
-      else if (is_statement(line, "vn")) ++seen[2];
+      if (is_statement(line, "v"))
+        ++seen[0];
+      else if (is_statement(line, "vt"))
+        ++seen[1];
+      else if (is_statement(line, "vn"))
+        ++seen[2];
       if (!is_statement(line, "f", &rest)) continue;
       for (const std::string_view reference : words_of(rest)) {
         std::string_view parts[3];
@@ -568,7 +584,8 @@ class ObjReader {
         vertex.push_back(entry->second);
         if (!added) continue;
         if (++vertices > kMaxMeshVertices)
-          fail(fmt::format("has more than {} distinct vertices (position, normal and texture coordinate), the most a model file may have", kMaxMeshVertices));
+          fail(fmt::format("has more than {} distinct vertices (position, normal and texture coordinate), the most a model file may have",
+                           kMaxMeshVertices));
         const double* at = &attrib.vertices[3 * static_cast<std::size_t>(key.v)];
         mesh.positions.push_back({at[0], at[1], at[2]});
         if (key.vn >= 0) {
@@ -612,15 +629,18 @@ class ObjReader {
         u64 zero = 0;
         for (Vec3d& normal : mesh.normals) {
           const double norm = length(normal);
-          if (norm > 0 && std::isfinite(norm)) normal = normal / norm;
-          else ++zero;
+          if (norm > 0 && std::isfinite(norm))
+            normal = normal / norm;
+          else
+            ++zero;
         }
         if (zero > 0) {
           warnings_.push_back(fmt::format("mesh '{}': {} normals of zero length: the file's normals are not used for it", clip(mesh.name), zero));
           mesh.normals.clear();
         }
       }
-      if (with_uv == 0) mesh.uvs.clear();
+      if (with_uv == 0)
+        mesh.uvs.clear();
       else if (with_uv < count)
         warnings_.push_back(fmt::format("mesh '{}': some faces have texture coordinates and some not (those get 0, 0)", clip(mesh.name)));
       out_.meshes.push_back(std::move(mesh));
@@ -636,8 +656,10 @@ class ObjReader {
     bool needs_default = false;
     for (const std::vector<int>& ids : material_ids_)
       for (const int id : ids) {
-        if (id >= 0 && static_cast<std::size_t>(id) < materials.size()) remap[static_cast<std::size_t>(id)] = 0;
-        else needs_default = true;
+        if (id >= 0 && static_cast<std::size_t>(id) < materials.size())
+          remap[static_cast<std::size_t>(id)] = 0;
+        else
+          needs_default = true;
       }
     std::map<std::string, std::vector<std::string>> unrendered;  // feature -> the materials that have it
     for (std::size_t i = 0; i < materials.size(); ++i) {
@@ -662,15 +684,17 @@ class ObjReader {
       std::vector<u32>& per_triangle = out_.meshes[m].materials;
       per_triangle.resize(out_.meshes[m].triangles.size(), default_material);
       for (std::size_t t = 0; t < per_triangle.size() && t < ids.size(); ++t)
-        if (ids[t] >= 0 && static_cast<std::size_t>(ids[t]) < materials.size()) per_triangle[t] = static_cast<u32>(remap[static_cast<std::size_t>(ids[t])]);
+        if (ids[t] >= 0 && static_cast<std::size_t>(ids[t]) < materials.size())
+          per_triangle[t] = static_cast<u32>(remap[static_cast<std::size_t>(ids[t])]);
       if (std::all_of(per_triangle.begin(), per_triangle.end(), [](u32 id) { return id == 0; })) per_triangle.clear();
     }
   }
 
   MeshMaterial convert(const tinyobj::material_t& from, const MaterialSource& source, std::map<std::string, std::vector<std::string>>& unrendered) {
-    const std::string where = source.line > 0 ? fmt::format("{}: line {}: material '{}'", source.library.filename().string(), source.line, clip(from.name))
-                                               : fmt::format("{}: material '{}'", source.library.filename().string(), clip(from.name));
-    const auto color = [&](const tinyobj::real_t (&c)[3], std::string_view statement) {
+    const std::string where = source.line > 0
+                                  ? fmt::format("{}: line {}: material '{}'", source.library.filename().string(), source.line, clip(from.name))
+                                  : fmt::format("{}: material '{}'", source.library.filename().string(), clip(from.name));
+    const auto color = [&](const tinyobj::real_t(&c)[3], std::string_view statement) {
       const Vec3d value{c[0], c[1], c[2]};
       if (!std::isfinite(value.x) || !std::isfinite(value.y) || !std::isfinite(value.z) || value.x < 0 || value.y < 0 || value.z < 0)
         fail(fmt::format("{}: {} is not a colour (finite and not negative)", where, statement));
@@ -678,14 +702,18 @@ class ObjReader {
     };
     MeshMaterial material;
     material.name = from.name;
-    if (source.has_kd) material.base_color = color(from.diffuse, "Kd");
-    else if (!from.diffuse_texname.empty()) material.base_color = {1, 1, 1};  // the texture as it is (tinyobjloader makes it 0.6)
+    if (source.has_kd)
+      material.base_color = color(from.diffuse, "Kd");
+    else if (!from.diffuse_texname.empty())
+      material.base_color = {1, 1, 1};  // the texture as it is (tinyobjloader makes it 0.6)
     if (material.base_color.x > 1 || material.base_color.y > 1 || material.base_color.z > 1) {
       material.base_color = {std::min(material.base_color.x, 1.0), std::min(material.base_color.y, 1.0), std::min(material.base_color.z, 1.0)};
       unrendered["diffuse colours (Kd) above 1 are clamped to 1"].push_back(from.name);
     }
-    if (source.has_ke) material.emission = color(from.emission, "Ke");
-    else if (!from.emissive_texname.empty()) material.emission = {1, 1, 1};
+    if (source.has_ke)
+      material.emission = color(from.emission, "Ke");
+    else if (!from.emissive_texname.empty())
+      material.emission = {1, 1, 1};
     const auto factor = [&](double value, std::string_view statement, double fallback) {
       if (!std::isfinite(value)) fail(fmt::format("{}: {} is not finite", where, statement));
       if (value < 0 || value > 1) unrendered[fmt::format("{} outside [0, 1] is clamped to it", statement)].push_back(from.name);
@@ -732,13 +760,13 @@ class ObjReader {
   // metallic in blue, read as linear data. Images of different sizes are sampled at the nearest texel onto the larger
   // width and the larger height. A constant Pm or Pr given with its map multiplies it, as Kd multiplies map_Kd;
   // without the constant the map is taken as it is; without a map the constant stands alone (a full channel times it).
-  void read_metallic_roughness_maps(const tinyobj::material_t& from, const MaterialSource& source, std::map<std::string, std::vector<std::string>>& unrendered,
-                                    MeshMaterial& material) {
+  void read_metallic_roughness_maps(const tinyobj::material_t& from, const MaterialSource& source,
+                                    std::map<std::string, std::vector<std::string>>& unrendered, MeshMaterial& material) {
     if (from.metallic_texname.empty() && from.roughness_texname.empty()) return;
-    const i32 metallic = texture(from.metallic_texname, from.metallic_texopt, "map_Pm", source, statement_place(source, source.map_pm_line, from.name),
-                                 unrendered, from.name);
-    const i32 roughness = texture(from.roughness_texname, from.roughness_texopt, "map_Pr", source, statement_place(source, source.map_pr_line, from.name),
-                                  unrendered, from.name);
+    const i32 metallic = texture(from.metallic_texname, from.metallic_texopt, "map_Pm", source,
+                                 statement_place(source, source.map_pm_line, from.name), unrendered, from.name);
+    const i32 roughness = texture(from.roughness_texname, from.roughness_texopt, "map_Pr", source,
+                                  statement_place(source, source.map_pr_line, from.name), unrendered, from.name);
     const auto channel = [](const tinyobj::texture_option_t& options) { return options.imfchan == 'g' ? 1 : options.imfchan == 'b' ? 2 : 0; };
     const std::array<int, 4> key{metallic, channel(from.metallic_texopt), roughness, channel(from.roughness_texopt)};
     if (const auto found = combined_.find(key); found != combined_.end()) {
@@ -847,8 +875,6 @@ class ObjReader {
 
 }  // namespace
 
-MeshFile read_obj_file(const std::filesystem::path& path) {
-  return ObjReader(path, read_model_input(path, path.string(), "OBJ file")).read();
-}
+MeshFile read_obj_file(const std::filesystem::path& path) { return ObjReader(path, read_model_input(path, path.string(), "OBJ file")).read(); }
 
 }  // namespace pt

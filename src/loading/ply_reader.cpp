@@ -19,8 +19,8 @@
 #include <fmt/format.h>
 
 #include "base/errors.hpp"
-#include "loading/model_files.hpp"
 #include "loading/model_file_input.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt {
 
@@ -37,10 +37,10 @@ struct ScalarName {
 
 // The PLY names first (in the order of Scalar, so that name_of can index them), then the sized aliases.
 constexpr ScalarName kScalarNames[] = {
-    {"char", Scalar::kInt8},    {"uchar", Scalar::kUint8},   {"short", Scalar::kInt16},   {"ushort", Scalar::kUint16},
-    {"int", Scalar::kInt32},    {"uint", Scalar::kUint32},   {"float", Scalar::kFloat32}, {"double", Scalar::kFloat64},
-    {"int8", Scalar::kInt8},    {"uint8", Scalar::kUint8},   {"int16", Scalar::kInt16},   {"uint16", Scalar::kUint16},
-    {"int32", Scalar::kInt32},  {"uint32", Scalar::kUint32}, {"float32", Scalar::kFloat32}, {"float64", Scalar::kFloat64}};
+    {"char", Scalar::kInt8},   {"uchar", Scalar::kUint8},   {"short", Scalar::kInt16},     {"ushort", Scalar::kUint16},
+    {"int", Scalar::kInt32},   {"uint", Scalar::kUint32},   {"float", Scalar::kFloat32},   {"double", Scalar::kFloat64},
+    {"int8", Scalar::kInt8},   {"uint8", Scalar::kUint8},   {"int16", Scalar::kInt16},     {"uint16", Scalar::kUint16},
+    {"int32", Scalar::kInt32}, {"uint32", Scalar::kUint32}, {"float32", Scalar::kFloat32}, {"float64", Scalar::kFloat64}};
 
 std::optional<Scalar> scalar_named(std::string_view name) {
   for (const ScalarName& entry : kScalarNames)
@@ -109,7 +109,6 @@ enum class Format { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
 
 bool is_ply_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
-
 std::vector<std::string_view> split_words(std::string_view line) {
   std::vector<std::string_view> words;
   std::size_t at = 0;
@@ -170,9 +169,7 @@ class PlyReader {
   }
 
   [[noreturn]] void fail(std::string_view message) const { throw InputError(fmt::format("{}: {}", file_, message)); }
-  [[noreturn]] void fail_at_line(u64 line, std::string_view message) const {
-    throw InputError(fmt::format("{}: line {}: {}", file_, line, message));
-  }
+  [[noreturn]] void fail_at_line(u64 line, std::string_view message) const { throw InputError(fmt::format("{}: line {}: {}", file_, line, message)); }
 
  private:
   // ---- Header ----
@@ -207,10 +204,14 @@ class PlyReader {
       if (keyword == "format") {
         if (saw_format) fail_at_line(line, "a second format line");
         if (words.size() != 3) fail_at_line(line, "expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
-        if (words[1] == "ascii") format_ = Format::kAscii;
-        else if (words[1] == "binary_little_endian") format_ = Format::kBinaryLittleEndian;
-        else if (words[1] == "binary_big_endian") format_ = Format::kBinaryBigEndian;
-        else fail_at_line(line, fmt::format("unknown format '{}' (expected ascii, binary_little_endian or binary_big_endian)", clip(words[1])));
+        if (words[1] == "ascii")
+          format_ = Format::kAscii;
+        else if (words[1] == "binary_little_endian")
+          format_ = Format::kBinaryLittleEndian;
+        else if (words[1] == "binary_big_endian")
+          format_ = Format::kBinaryBigEndian;
+        else
+          fail_at_line(line, fmt::format("unknown format '{}' (expected ascii, binary_little_endian or binary_big_endian)", clip(words[1])));
         if (words[2] != "1.0" && words[2] != "1") fail_at_line(line, fmt::format("PLY version '{}' is not supported (only 1.0)", clip(words[2])));
         saw_format = true;
       } else if (keyword == "element") {
@@ -242,7 +243,8 @@ class PlyReader {
         Element& element = elements_.back();
         for (const Property& other : element.properties)
           if (other.name == property.name)
-            fail_at_line(line, fmt::format("a second property '{}' in element '{}' (the first is on line {})", clip(property.name), clip(element.name), other.line));
+            fail_at_line(line, fmt::format("a second property '{}' in element '{}' (the first is on line {})", clip(property.name),
+                                           clip(element.name), other.line));
         element.properties.push_back(std::move(property));
       } else {
         // Not a PLY keyword: some writers put a comment without the word (Blender 2.4 "Created by ..."). Skipped.
@@ -302,7 +304,8 @@ class PlyReader {
       fail_at_line(vertex.line, fmt::format("the vertex element has {} of the normal's properties nx, ny, nz: give all three or none",
                                             normal_count == 1 ? "only one" : "only two"));
     }
-    constexpr std::pair<std::string_view, std::string_view> kUvNames[] = {{"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}};
+    constexpr std::pair<std::string_view, std::string_view> kUvNames[] = {
+        {"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}};
     for (const auto& [u_name, v_name] : kUvNames) {
       Property* u = find(vertex, u_name);
       Property* v = find(vertex, v_name);
@@ -321,7 +324,8 @@ class PlyReader {
           break;
         }
 
-    if (face_ < 0) fail(fmt::format("has no faces (the header declares no face element, only {} vertices): point clouds are not rendered", vertex.count));
+    if (face_ < 0)
+      fail(fmt::format("has no faces (the header declares no face element, only {} vertices): point clouds are not rendered", vertex.count));
     Element& face = elements_[face_];
     Property* indices = find(face, "vertex_indices");
     if (!indices) indices = find(face, "vertex_index");
@@ -339,7 +343,8 @@ class PlyReader {
     }
     std::string skipped;
     for (const Element& element : elements_)
-      if (&element != &vertex && &element != &face) skipped += fmt::format("{}{} ({})", skipped.empty() ? "" : ", ", clip(element.name), element.count);
+      if (&element != &vertex && &element != &face)
+        skipped += fmt::format("{}{} ({})", skipped.empty() ? "" : ", ", clip(element.name), element.count);
     if (!skipped.empty()) warnings_.push_back(fmt::format("elements not read: {}", skipped));
   }
 
@@ -349,9 +354,11 @@ class PlyReader {
     const Element& vertex = elements_[vertex_];
     const Element& face = elements_[face_];
     if (vertex.count > kMaxMeshVertices)
-      fail_at_line(vertex.line, fmt::format("the header declares {} vertices, more than the {} a model file may have", vertex.count, kMaxMeshVertices));
+      fail_at_line(vertex.line,
+                   fmt::format("the header declares {} vertices, more than the {} a model file may have", vertex.count, kMaxMeshVertices));
     if (face.count > kMaxMeshTriangles)
-      fail_at_line(face.line, fmt::format("the header declares {} faces, more than the {} triangles a model file may have", face.count, kMaxMeshTriangles));
+      fail_at_line(face.line,
+                   fmt::format("the header declares {} faces, more than the {} triangles a model file may have", face.count, kMaxMeshTriangles));
     const u64 body_bytes = content_.size() - body_;
     u64 budget = format_ == Format::kAscii ? body_bytes + 1 : body_bytes;  // the last value needs no separator
     for (const Element& element : elements_) {
@@ -360,9 +367,10 @@ class PlyReader {
         least += format_ == Format::kAscii ? 2 : size_of(property.list ? property.count_type : property.type);
       if (least == 0) continue;
       if (element.count > budget / least)
-        fail_at_line(element.line, fmt::format("the header declares {} '{}' elements, which take at least {} bytes each {}, but the file has only {} "
-                                               "bytes after the header for them and the elements before (it is cut short, or the count is wrong)",
-                                               element.count, clip(element.name), least, format_ == Format::kAscii ? "as text" : "in binary", body_bytes));
+        fail_at_line(element.line,
+                     fmt::format("the header declares {} '{}' elements, which take at least {} bytes each {}, but the file has only {} "
+                                 "bytes after the header for them and the elements before (it is cut short, or the count is wrong)",
+                                 element.count, clip(element.name), least, format_ == Format::kAscii ? "as text" : "in binary", body_bytes));
       budget -= element.count * least;
     }
   }
@@ -373,7 +381,10 @@ class PlyReader {
   class AsciiSource {
    public:
     explicit AsciiSource(const PlyReader& reader)
-        : reader_(reader), at_(reader.content_.data() + reader.body_), end_(reader.content_.data() + reader.content_.size()), line_(reader.body_line_) {}
+        : reader_(reader),
+          at_(reader.content_.data() + reader.body_),
+          end_(reader.content_.data() + reader.content_.size()),
+          line_(reader.body_line_) {}
 
     void begin(const Element& element, u64 index) {
       element_ = &element;
@@ -428,7 +439,8 @@ class PlyReader {
     }
     i64 integer_from(std::string_view text, const Property& property, Scalar type) const {
       i64 value = 0;
-      if (!parse_integer(text, value)) fail(fmt::format("'{}' is not a whole number (property '{}' is {})", clip(text), clip(property.name), name_of(type)));
+      if (!parse_integer(text, value))
+        fail(fmt::format("'{}' is not a whole number (property '{}' is {})", clip(text), clip(property.name), name_of(type)));
       if (value < smallest(type) || value > largest(type))
         fail(fmt::format("{} is out of range for property '{}' ({})", value, clip(property.name), name_of(type)));
       return value;
@@ -551,9 +563,12 @@ class PlyReader {
   void read_body(Source& source) {
     for (const Element& element : elements_) {
       if (element.properties.empty()) continue;
-      if (&element == &elements_[vertex_]) read_vertices(source, element);
-      else if (&element == &elements_[face_]) read_faces(source, element);
-      else skip_element(source, element);
+      if (&element == &elements_[vertex_])
+        read_vertices(source, element);
+      else if (&element == &elements_[face_])
+        read_faces(source, element);
+      else
+        skip_element(source, element);
     }
   }
 
@@ -564,8 +579,10 @@ class PlyReader {
     for (u64 i = 0; i < element.count; ++i) {
       source.begin(element, i);
       for (const Property& property : element.properties) {
-        if (property.list) source.skip_list(property);
-        else source.skip(property);
+        if (property.list)
+          source.skip_list(property);
+        else
+          source.skip(property);
       }
       source.end();
     }
@@ -580,9 +597,12 @@ class PlyReader {
     for (u64 i = 0; i < element.count; ++i) {
       source.begin(element, i);
       for (const Property& property : element.properties) {
-        if (property.list) source.skip_list(property);
-        else if (property.role == Role::kSkip) source.skip(property);
-        else values[static_cast<int>(property.role)] = source.real(property, property.type);
+        if (property.list)
+          source.skip_list(property);
+        else if (property.role == Role::kSkip)
+          source.skip(property);
+        else
+          values[static_cast<int>(property.role)] = source.real(property, property.type);
       }
       const Vec3d position{values[static_cast<int>(Role::kX)], values[static_cast<int>(Role::kY)], values[static_cast<int>(Role::kZ)]};
       if (!std::isfinite(position.x) || !std::isfinite(position.y) || !std::isfinite(position.z)) source.fail("position is not finite");
@@ -591,8 +611,10 @@ class PlyReader {
         const Vec3d normal{values[static_cast<int>(Role::kNx)], values[static_cast<int>(Role::kNy)], values[static_cast<int>(Role::kNz)]};
         if (!std::isfinite(normal.x) || !std::isfinite(normal.y) || !std::isfinite(normal.z)) source.fail("normal is not finite");
         const double norm = length(normal);
-        if (norm > 0 && std::isfinite(norm)) mesh_.normals[i] = normal / norm;
-        else ++zero_normals_;
+        if (norm > 0 && std::isfinite(norm))
+          mesh_.normals[i] = normal / norm;
+        else
+          ++zero_normals_;
       }
       if (has_uvs_) {
         const double u = values[static_cast<int>(Role::kU)], v = values[static_cast<int>(Role::kV)];
@@ -613,8 +635,10 @@ class PlyReader {
       corners.clear();
       for (const Property& property : element.properties) {
         if (property.role != Role::kIndices) {
-          if (property.list) source.skip_list(property);
-          else source.skip(property);
+          if (property.list)
+            source.skip_list(property);
+          else
+            source.skip(property);
           continue;
         }
         const u64 length = source.list_length(property);
@@ -639,8 +663,7 @@ class PlyReader {
 
   MeshFile finish() {
     if (short_faces_ > 0) warnings_.push_back(fmt::format("{} faces of fewer than 3 vertices skipped", short_faces_));
-    if (mesh_.triangles.empty())
-      fail(fmt::format("has no faces of 3 or more vertices (the header declares {} faces)", elements_[face_].count));
+    if (mesh_.triangles.empty()) fail(fmt::format("has no faces of 3 or more vertices (the header declares {} faces)", elements_[face_].count));
     if (zero_normals_ > 0) {
       warnings_.push_back(fmt::format("{} vertex normals of zero length: the file's normals are not used", zero_normals_));
       mesh_.normals.clear();
@@ -673,8 +696,6 @@ class PlyReader {
 
 }  // namespace
 
-MeshFile read_ply_file(const std::filesystem::path& path) {
-  return PlyReader(path, read_model_input(path, path.string(), "PLY file")).read();
-}
+MeshFile read_ply_file(const std::filesystem::path& path) { return PlyReader(path, read_model_input(path, path.string(), "PLY file")).read(); }
 
 }  // namespace pt

@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <limits>
 #include <initializer_list>
+#include <limits>
 #include <map>
 #include <optional>
 
@@ -17,8 +17,8 @@
 
 #include "base/input_file.hpp"
 #include "image/image_io.hpp"
-#include "loading/model_files.hpp"
 #include "loading/json_outline.hpp"
+#include "loading/model_files.hpp"
 #include "scene/json_positions.hpp"
 #include "scene/json_scan.hpp"
 
@@ -280,8 +280,9 @@ class SceneReader {
     // t_min once kept rays from hitting the surface they leave; its fixed distance was wrong at most scales. Rays
     // now start off the surface by the hit point's own rounding error bound (kernel/shapes.hpp, describe_hit).
     if (n.has("t_min"))
-      n.child("t_min").fail("t_min is no longer a setting: rays leave surfaces from an offset derived from the rounding error of the "
-                            "hit point, at every scale and in every number format; remove it (see docs/scene-format.md)");
+      n.child("t_min").fail(
+          "t_min is no longer a setting: rays leave surfaces from an offset derived from the rounding error of the "
+          "hit point, at every scale and in every number format; remove it (see docs/scene-format.md)");
   }
 
   void read_camera(const Node& n) {
@@ -385,10 +386,14 @@ class SceneReader {
       NoiseKind kind = NoiseKind::kPerlin;
       if (n.has("kind")) {
         const std::string k = n.child("kind").string();
-        if (k == "perlin") kind = NoiseKind::kPerlin;
-        else if (k == "turbulence") kind = NoiseKind::kTurbulence;
-        else if (k == "marble") kind = NoiseKind::kMarble;
-        else n.child("kind").fail(fmt::format("unknown noise kind '{}' (expected 'perlin', 'turbulence' or 'marble')", k));
+        if (k == "perlin")
+          kind = NoiseKind::kPerlin;
+        else if (k == "turbulence")
+          kind = NoiseKind::kTurbulence;
+        else if (k == "marble")
+          kind = NoiseKind::kMarble;
+        else
+          n.child("kind").fail(fmt::format("unknown noise kind '{}' (expected 'perlin', 'turbulence' or 'marble')", k));
       }
       const double scale = n.has("scale") ? n.child("scale").positive() : 1.0;
       const u32 depth = n.has("turbulence_depth") ? n.child("turbulence_depth").integer(1, 16) : 7;
@@ -412,7 +417,8 @@ class SceneReader {
       where.fail(e.what());
     }
     if (scene_.texels.size() + image.srgb.size() > kMaxSceneTexelBytes)
-      where.fail(fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)", kMaxSceneTexelBytes >> 20));
+      where.fail(
+          fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)", kMaxSceneTexelBytes >> 20));
     const ImageRef ref{image.width, image.height, static_cast<u32>(scene_.texels.size() / 3)};
     scene_.texels.insert(scene_.texels.end(), image.srgb.begin(), image.srgb.end());
     images_.emplace(key, ref);
@@ -579,7 +585,8 @@ class SceneReader {
       if (n.has("material")) {
         const Node material = n.child("material");
         object.material = read_material_reference(material);
-        if (std::holds_alternative<Isotropic<double>>(scene_.materials[object.material])) material.fail("an isotropic material only belongs to a medium");
+        if (std::holds_alternative<Isotropic<double>>(scene_.materials[object.material]))
+          material.fail("an isotropic material only belongs to a medium");
       }
       scene_.objects.push_back(object);
       return;
@@ -600,7 +607,8 @@ class SceneReader {
       const Node vertices = n.at("vertices");
       vertices.array_size(3, 3);
       for (std::size_t i = 0; i < 3; ++i) t.vertices[i] = vertices.element(i).vec3();
-      if (length_squared(cross(t.vertices[1] - t.vertices[0], t.vertices[2] - t.vertices[0])) == 0) vertices.fail("the triangle is degenerate (zero area)");
+      if (length_squared(cross(t.vertices[1] - t.vertices[0], t.vertices[2] - t.vertices[0])) == 0)
+        vertices.fail("the triangle is degenerate (zero area)");
       if (n.has("normals")) {
         const Node normals = n.child("normals");
         normals.array_size(3, 3);

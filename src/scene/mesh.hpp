@@ -35,15 +35,15 @@ struct MeshMaterial {
 // One indexed triangle mesh. A vertex is one index into every per-vertex array (formats that index positions,
 // normals and uvs separately, like OBJ, are unified by the reader).
 struct TriangleMesh {
-  std::string name;                            // for messages: the file's name for it, or "mesh N"
+  std::string name;  // for messages: the file's name for it, or "mesh N"
   std::vector<Vec3d> positions;
-  std::vector<Vec3d> normals;                  // empty, or one per position (unit length)
-  std::vector<std::array<double, 2>> uvs;      // empty, or one per position (v up, as OBJ and PLY write it)
-  std::vector<std::array<double, 4>> tangents; // empty, or one per position where there are normals: glTF's TANGENT,
-                                               // xyz along increasing u, w the bitangent's sign (w normal x xyz)
-  std::vector<std::array<u32, 3>> triangles;   // counter-clockwise seen from the front, indices into the vertex arrays
-  std::vector<u32> materials;                  // empty (every triangle uses material 0), or one per triangle:
-                                               // an index into MeshFile::materials
+  std::vector<Vec3d> normals;                   // empty, or one per position (unit length)
+  std::vector<std::array<double, 2>> uvs;       // empty, or one per position (v up, as OBJ and PLY write it)
+  std::vector<std::array<double, 4>> tangents;  // empty, or one per position where there are normals: glTF's TANGENT,
+                                                // xyz along increasing u, w the bitangent's sign (w normal x xyz)
+  std::vector<std::array<u32, 3>> triangles;    // counter-clockwise seen from the front, indices into the vertex arrays
+  std::vector<u32> materials;                   // empty (every triangle uses material 0), or one per triangle:
+                                                // an index into MeshFile::materials
 };
 
 // A mesh of the file placed in the file's space: glTF nodes place meshes (a mesh may be placed several times);
@@ -57,11 +57,11 @@ struct MeshPlacement {
 struct MeshFile {
   std::filesystem::path path;
   std::vector<TriangleMesh> meshes;
-  std::vector<MeshMaterial> materials;     // at least one: readers add a default (MeshMaterial{}) where the file has none
-  std::vector<TextureImage> textures;      // decoded 8-bit sRGB images (read_texture_image's limits apply)
+  std::vector<MeshMaterial> materials;  // at least one: readers add a default (MeshMaterial{}) where the file has none
+  std::vector<TextureImage> textures;   // decoded 8-bit sRGB images (read_texture_image's limits apply)
   std::vector<MeshPlacement> placements;
-  std::optional<CameraSettings> camera;    // glTF: the first camera of the scene, placed by its node
-  std::vector<std::string> warnings;       // each feature of the file that is not rendered, named once
+  std::optional<CameraSettings> camera;  // glTF: the first camera of the scene, placed by its node
+  std::vector<std::string> warnings;     // each feature of the file that is not rendered, named once
 };
 
 }  // namespace pt

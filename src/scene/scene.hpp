@@ -17,8 +17,8 @@
 #include "base/errors.hpp"
 #include "base/render_settings.hpp"
 #include "kernel/material.hpp"
-#include "kernel/shapes.hpp"
 #include "kernel/scene_view.hpp"
+#include "kernel/shapes.hpp"
 
 namespace pt {
 
@@ -57,9 +57,9 @@ struct AffineTransform {
   static AffineTransform from_column_major(const double m[16]);
   Vec3d apply_point(const Vec3d& p) const { return apply_vector(p) + translation; }
   Vec3d apply_vector(const Vec3d& v) const;
-  Vec3d apply_normal(const Vec3d& n) const;  // by the inverse transpose times the determinant's sign, not normalised
+  Vec3d apply_normal(const Vec3d& n) const;                  // by the inverse transpose times the determinant's sign, not normalised
   AffineTransform then(const AffineTransform& outer) const;  // this first, then outer
-  AffineTransform inverse() const;  // of an invertible map (determinant != 0)
+  AffineTransform inverse() const;                           // of an invertible map (determinant != 0)
   double determinant() const;
   bool is_identity() const;
 };
@@ -158,10 +158,14 @@ class ObjectList {
     u32 slot;       // index in the store of its shape kind
     u32 transform;  // index in transforms_, or kIdentity
     u32 material;
-    u8 shape;       // the ObjectShape alternative
+    u8 shape;  // the ObjectShape alternative
   };
-  template <class Variant> struct StoresOf;
-  template <class... Shapes> struct StoresOf<std::variant<Shapes...>> { using type = std::tuple<std::deque<Shapes>...>; };
+  template <class Variant>
+  struct StoresOf;
+  template <class... Shapes>
+  struct StoresOf<std::variant<Shapes...>> {
+    using type = std::tuple<std::deque<Shapes>...>;
+  };
 
   Record store(const SceneObject& object) {
     Record r{};
@@ -203,7 +207,7 @@ struct SceneSourceMap {
   std::vector<std::string> textures;        // per texture its JSON path; for a solid texture, that of its colour array
   std::vector<std::string> materials;       // per material its JSON path (under /materials, or inline in an object)
   std::string horizon = "/background/horizon", zenith = "/background/zenith";  // the background's two colours
-  std::string environment = "/background/file";  // the environment image
+  std::string environment = "/background/file";                                // the environment image
 };
 
 // An environment image as read (image/image_io.hpp, read_environment_image), with what the scene says about it.
@@ -223,12 +227,12 @@ struct SceneMeshFile {
 };
 
 struct SceneDescription {
-  std::string source;  // the file it came from, for messages
+  std::string source;      // the file it came from, for messages
   SceneSourceMap written;  // where its parts were written in that file
   RenderSettings render;
   CameraSettings camera;
   Background<double> background{{1, 1, 1}, {0.5, 0.7, 1.0}, {}};  // the gradient (its environment part is unused here)
-  std::optional<EnvironmentSettings> environment;               // in place of the gradient when present
+  std::optional<EnvironmentSettings> environment;                 // in place of the gradient when present
   std::vector<Texture<double>> textures;
   std::vector<u8> texels;  // every image texture's sRGB-encoded RGB texels (TextureImage), one after another
   std::vector<Material<double>> materials;

@@ -28,8 +28,7 @@ RigidTransform RigidTransform::from_euler_degrees(const Vec3d& degrees, const Ve
 }
 
 Vec3d RigidTransform::apply_vector(const Vec3d& v) const {
-  return {rotation[0][0] * v.x + rotation[0][1] * v.y + rotation[0][2] * v.z,
-          rotation[1][0] * v.x + rotation[1][1] * v.y + rotation[1][2] * v.z,
+  return {rotation[0][0] * v.x + rotation[0][1] * v.y + rotation[0][2] * v.z, rotation[1][0] * v.x + rotation[1][1] * v.y + rotation[1][2] * v.z,
           rotation[2][0] * v.x + rotation[2][1] * v.y + rotation[2][2] * v.z};
 }
 
@@ -80,7 +79,7 @@ Vec3d AffineTransform::apply_vector(const Vec3d& v) const {
 Vec3d AffineTransform::apply_normal(const Vec3d& n) const {
   // The inverse transpose is the cofactor matrix over the determinant; the cofactors alone keep the direction
   // (times the determinant's sign, which the caller's orientation handling must not depend on: flip it back).
-  const double (&m)[3][3] = linear;
+  const double(&m)[3][3] = linear;
   const double c[3][3] = {{m[1][1] * m[2][2] - m[1][2] * m[2][1], m[1][2] * m[2][0] - m[1][0] * m[2][2], m[1][0] * m[2][1] - m[1][1] * m[2][0]},
                           {m[0][2] * m[2][1] - m[0][1] * m[2][2], m[0][0] * m[2][2] - m[0][2] * m[2][0], m[0][1] * m[2][0] - m[0][0] * m[2][1]},
                           {m[0][1] * m[1][2] - m[0][2] * m[1][1], m[0][2] * m[1][0] - m[0][0] * m[1][2], m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
@@ -93,19 +92,20 @@ Vec3d AffineTransform::apply_normal(const Vec3d& n) const {
 AffineTransform AffineTransform::then(const AffineTransform& outer) const {
   AffineTransform out;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) out.linear[i][j] = outer.linear[i][0] * linear[0][j] + outer.linear[i][1] * linear[1][j] + outer.linear[i][2] * linear[2][j];
+    for (int j = 0; j < 3; ++j)
+      out.linear[i][j] = outer.linear[i][0] * linear[0][j] + outer.linear[i][1] * linear[1][j] + outer.linear[i][2] * linear[2][j];
   out.translation = outer.apply_point(translation);
   return out;
 }
 
 double AffineTransform::determinant() const {
-  const double (&m)[3][3] = linear;
+  const double(&m)[3][3] = linear;
   return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
          m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
 }
 
 AffineTransform AffineTransform::inverse() const {
-  const double (&m)[3][3] = linear;
+  const double(&m)[3][3] = linear;
   const double d = determinant();
   AffineTransform out;
   out.linear[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / d;

@@ -15,24 +15,47 @@ namespace pt::hardware {
 
 using i64 = std::int64_t;
 
-template <class T> i64 raw(T v) { return static_cast<i64>(v.raw); }
-template <class T> T value(i64 r) { return T::from_raw(static_cast<typename T::Storage>(r)); }
+template <class T>
+i64 raw(T v) {
+  return static_cast<i64>(v.raw);
+}
+template <class T>
+T value(i64 r) {
+  return T::from_raw(static_cast<typename T::Storage>(r));
+}
 // A float's raw value is its bit pattern, sign-extended from 32 bits as the testbench reads a unit's outputs.
 inline i64 raw(float v) {
   std::uint32_t bits;
   std::memcpy(&bits, &v, sizeof bits);
   return static_cast<std::int32_t>(bits);
 }
-template <> inline float value<float>(i64 r) {
+template <>
+inline float value<float>(i64 r) {
   const std::uint32_t bits = static_cast<std::uint32_t>(r);
   float v;
   std::memcpy(&v, &bits, sizeof v);
   return v;
 }
-template <class T> void put(i64*& out, const Vec3<T>& v) { *out++ = raw(v.x); *out++ = raw(v.y); *out++ = raw(v.z); }
-template <class T> void put(i64*& out, T v) { *out++ = raw(v); }
-template <class T> Vec3<T> get3(const i64*& in) { const Vec3<T> v{value<T>(in[0]), value<T>(in[1]), value<T>(in[2])}; in += 3; return v; }
-template <class T> T get1(const i64*& in) { return value<T>(*in++); }
+template <class T>
+void put(i64*& out, const Vec3<T>& v) {
+  *out++ = raw(v.x);
+  *out++ = raw(v.y);
+  *out++ = raw(v.z);
+}
+template <class T>
+void put(i64*& out, T v) {
+  *out++ = raw(v);
+}
+template <class T>
+Vec3<T> get3(const i64*& in) {
+  const Vec3<T> v{value<T>(in[0]), value<T>(in[1]), value<T>(in[2])};
+  in += 3;
+  return v;
+}
+template <class T>
+T get1(const i64*& in) {
+  return value<T>(*in++);
+}
 
 // Outputs: the hit flag first, then the values the kernel writes. `always_written` says whether those values are
 // written on a miss too (the box's entry distance) or only on a hit (a primitive's Hit fields).
@@ -40,7 +63,7 @@ struct BoxOperands {
   static constexpr std::string_view kName = "box";
   static constexpr std::array<std::string_view, 14> kInputs = {
       "inv_direction_x", "inv_direction_y", "inv_direction_z", "origin_term_x", "origin_term_y", "origin_term_z", "near_bound_x",
-      "near_bound_y", "near_bound_z", "far_bound_x", "far_bound_y", "far_bound_z", "t_min", "t_max"};
+      "near_bound_y",    "near_bound_z",    "far_bound_x",     "far_bound_y",   "far_bound_z",   "t_min",         "t_max"};
   static constexpr std::array<std::string_view, 2> kOutputs = {"hit", "t_entry"};
   static constexpr bool kAlwaysWritten = true;
   static constexpr int kFirstExtent = 0, kExtents = 0;
@@ -77,9 +100,9 @@ struct BoxOperands {
 
 struct TriangleOperands {
   static constexpr std::string_view kName = "triangle";
-  static constexpr std::array<std::string_view, 17> kInputs = {
-      "p0_x", "p0_y", "p0_z", "edge1_x", "edge1_y", "edge1_z", "edge2_x", "edge2_y", "edge2_z", "origin_x", "origin_y", "origin_z",
-      "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
+  static constexpr std::array<std::string_view, 17> kInputs = {"p0_x",        "p0_y",        "p0_z",        "edge1_x",  "edge1_y",  "edge1_z",
+                                                               "edge2_x",     "edge2_y",     "edge2_z",     "origin_x", "origin_y", "origin_z",
+                                                               "direction_x", "direction_y", "direction_z", "t_min",    "t_max"};
   static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
   static constexpr bool kAlwaysWritten = false;
   static constexpr int kFirstExtent = 0, kExtents = 0;
@@ -114,8 +137,8 @@ struct TriangleOperands {
 struct QuadOperands {
   static constexpr std::string_view kName = "quad";
   static constexpr std::array<std::string_view, 22> kInputs = {
-      "corner_x", "corner_y", "corner_z", "normal_x", "normal_y", "normal_z", "du_x", "du_y", "du_z", "dv_x", "dv_y", "dv_z",
-      "u_extent", "v_extent", "origin_x", "origin_y", "origin_z", "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
+      "corner_x", "corner_y", "corner_z", "normal_x", "normal_y", "normal_z", "du_x",        "du_y",        "du_z",        "dv_x",  "dv_y",
+      "dv_z",     "u_extent", "v_extent", "origin_x", "origin_y", "origin_z", "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
   // The extents' raw values are powers of two (flatten_scene stores them so; the unit divides by them with a shift).
   static constexpr int kFirstExtent = 12, kExtents = 2;
   static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
@@ -155,8 +178,8 @@ struct QuadOperands {
 
 struct SphereOperands {
   static constexpr std::string_view kName = "sphere";
-  static constexpr std::array<std::string_view, 12> kInputs = {"center_x", "center_y", "center_z", "radius", "origin_x", "origin_y",
-                                                                "origin_z", "direction_x", "direction_y", "direction_z", "t_min", "t_max"};
+  static constexpr std::array<std::string_view, 12> kInputs = {"center_x", "center_y",    "center_z",    "radius",      "origin_x", "origin_y",
+                                                               "origin_z", "direction_x", "direction_y", "direction_z", "t_min",    "t_max"};
   static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
   static constexpr bool kAlwaysWritten = false;
   static constexpr int kFirstExtent = 0, kExtents = 0;

@@ -21,8 +21,8 @@
 #include "base/number_formats.hpp"
 #include "flat/flat_scene.hpp"
 #include "hardware/operands.hpp"
-#include "recorded_formats.hpp"  // generated: PT_FOR_EACH_RECORDED_FORMAT
 #include "loading/scene_loader.hpp"
+#include "recorded_formats.hpp"  // generated: PT_FOR_EACH_RECORDED_FORMAT
 
 namespace pt::hardware {
 namespace {
@@ -198,7 +198,8 @@ std::size_t record_scene(const FlatScene<T>& flat, std::size_t quota, u32 max_sa
         if (shadow.entry != kNoLight) {
           Hit<T> shadow_hit{};
           T optical_depth = T(0);
-          recorded_closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, 0, &optical_depth}, shadow_hit, shadow.distance, sink);
+          recorded_closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, 0, &optical_depth}, shadow_hit, shadow.distance,
+                               sink);
         }
         if (!goes_on) break;
       }
@@ -218,13 +219,20 @@ int run(int argc, char** argv) {
       if (i + 1 >= argc) throw std::runtime_error(arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "--unit") unit = next();
-    else if (arg == "--format") format = next();
-    else if (arg == "--count") count = std::stoull(next());
-    else if (arg == "--width") width = static_cast<u32>(std::stoul(next()));
-    else if (arg == "--height") height = static_cast<u32>(std::stoul(next()));
-    else if (arg == "--max-samples") max_samples = static_cast<u32>(std::stoul(next()));
-    else scenes.push_back(arg);
+    if (arg == "--unit")
+      unit = next();
+    else if (arg == "--format")
+      format = next();
+    else if (arg == "--count")
+      count = std::stoull(next());
+    else if (arg == "--width")
+      width = static_cast<u32>(std::stoul(next()));
+    else if (arg == "--height")
+      height = static_cast<u32>(std::stoul(next()));
+    else if (arg == "--max-samples")
+      max_samples = static_cast<u32>(std::stoul(next()));
+    else
+      scenes.push_back(arg);
   }
   if (unit.empty() || format.empty() || scenes.empty())
     throw std::runtime_error("usage: pt_record_operands --unit box|triangle|quad|sphere --format qI.F [--count N] SCENE...");

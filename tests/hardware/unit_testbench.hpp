@@ -46,9 +46,27 @@ constexpr int kInputs = static_cast<int>(Operands::kInputs.size());
 constexpr int kOutputs = static_cast<int>(Operands::kOutputs.size());
 
 // The range's end and one as raw values (a float's bits), and the largest value and smallest step as doubles.
-template <class U> constexpr i64 max_raw() { if constexpr (std::is_same_v<U, float>) return 0x7f7fffff; else return U::kMaxRaw; }
-template <class U> constexpr i64 one_raw() { if constexpr (std::is_same_v<U, float>) return 0x3f800000; else return i64(1) << U::kFractionBits; }
-template <class U> constexpr int total_bits() { if constexpr (std::is_same_v<U, float>) return 32; else return U::kTotalBits; }
+template <class U>
+constexpr i64 max_raw() {
+  if constexpr (std::is_same_v<U, float>)
+    return 0x7f7fffff;
+  else
+    return U::kMaxRaw;
+}
+template <class U>
+constexpr i64 one_raw() {
+  if constexpr (std::is_same_v<U, float>)
+    return 0x3f800000;
+  else
+    return i64(1) << U::kFractionBits;
+}
+template <class U>
+constexpr int total_bits() {
+  if constexpr (std::is_same_v<U, float>)
+    return 32;
+  else
+    return U::kTotalBits;
+}
 constexpr i64 kMax = max_raw<T>();
 constexpr i64 kOne = one_raw<T>();
 const double kLargest = kFloat ? static_cast<double>(FLT_MAX) : static_cast<double>(kMax) / static_cast<double>(kOne);
@@ -95,8 +113,8 @@ struct EdgeCases {
   }
   i64 extreme() {
     if constexpr (kFloat) return extreme_float();
-    static const i64 kValues[] = {0, 1, -1, 2, -2, kOne, -kOne, kOne - 1, kOne + 1, -kOne + 1, kMax, -kMax, kMax - 1, -kMax + 1,
-                                  kMax / 2, -kMax / 2, kOne / 2, -kOne / 2, kOne * 2, -kOne * 2};
+    static const i64 kValues[] = {0,    1,     -1,       2,         -2,       kOne,      -kOne,    kOne - 1,  kOne + 1, -kOne + 1,
+                                  kMax, -kMax, kMax - 1, -kMax + 1, kMax / 2, -kMax / 2, kOne / 2, -kOne / 2, kOne * 2, -kOne * 2};
     std::uniform_int_distribution<int> pick(0, sizeof(kValues) / sizeof(kValues[0]) + 3);
     const int k = pick(rng);
     if (k < static_cast<int>(sizeof(kValues) / sizeof(kValues[0]))) return kValues[k];
@@ -106,10 +124,36 @@ struct EdgeCases {
   // Floats: zeros of both signs, denormals (read as zero), the ends of the normal range, infinities, NaN, values
   // next to 1, very large and very small ones, random bit patterns and random values of the size of directions.
   i64 extreme_float() {
-    static const float kValues[] = {0.0f, -0.0f, 1.0f, -1.0f, 0.5f, -0.5f, 2.0f, -2.0f, FLT_MAX, -FLT_MAX, FLT_MIN, -FLT_MIN,
-                                    value<float>(1), value<float>(0x007fffff), value<float>(0x80000001), INFINITY, -INFINITY,
-                                    value<float>(0x7fc00000), 1e-20f, -1e-20f, 1e20f, -1e20f, 1e-30f, 1e30f, -1e30f,
-                                    value<float>(0x3f7fffff), value<float>(0x3f800001), 3.0f, 1e-3f, 1e3f};
+    static const float kValues[] = {0.0f,
+                                    -0.0f,
+                                    1.0f,
+                                    -1.0f,
+                                    0.5f,
+                                    -0.5f,
+                                    2.0f,
+                                    -2.0f,
+                                    FLT_MAX,
+                                    -FLT_MAX,
+                                    FLT_MIN,
+                                    -FLT_MIN,
+                                    value<float>(1),
+                                    value<float>(0x007fffff),
+                                    value<float>(0x80000001),
+                                    INFINITY,
+                                    -INFINITY,
+                                    value<float>(0x7fc00000),
+                                    1e-20f,
+                                    -1e-20f,
+                                    1e20f,
+                                    -1e20f,
+                                    1e-30f,
+                                    1e30f,
+                                    -1e30f,
+                                    value<float>(0x3f7fffff),
+                                    value<float>(0x3f800001),
+                                    3.0f,
+                                    1e-3f,
+                                    1e3f};
     constexpr int kCount = sizeof(kValues) / sizeof(kValues[0]);
     const int k = std::uniform_int_distribution<int>(0, kCount + 3)(rng);
     if (k < kCount) return raw(kValues[k]);
@@ -320,10 +364,14 @@ int run_testbench(int argc, char** argv) {
   bool ieee_denormals = false;  // float32: run the model with denormals (MXCSR as it was), to show the edge cases reach them
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--min-recorded" && i + 1 < argc) min_recorded = std::stoull(argv[++i]);
-    else if (arg == "--edge-cases-only") read_recorded = false;
-    else if (arg == "--ieee-denormals") ieee_denormals = true;
-    else throw std::runtime_error("usage: " + std::string(argv[0]) + " [--min-recorded N] [--edge-cases-only] [--ieee-denormals] < operand stream");
+    if (arg == "--min-recorded" && i + 1 < argc)
+      min_recorded = std::stoull(argv[++i]);
+    else if (arg == "--edge-cases-only")
+      read_recorded = false;
+    else if (arg == "--ieee-denormals")
+      ieee_denormals = true;
+    else
+      throw std::runtime_error("usage: " + std::string(argv[0]) + " [--min-recorded N] [--edge-cases-only] [--ieee-denormals] < operand stream");
   }
   for (int k = 0; k < kInputs; ++k)
     if (Operands::kInputs[k] != Ports::kInputs[k])
@@ -332,7 +380,9 @@ int run_testbench(int argc, char** argv) {
   // The float32 model's denormal policy, the unit's (restored on return).
   struct FlushDenormals {
     unsigned saved = _mm_getcsr();
-    explicit FlushDenormals(bool flush) { if (flush) _mm_setcsr(saved | _MM_FLUSH_ZERO_ON | 0x0040 /* DAZ */); }
+    explicit FlushDenormals(bool flush) {
+      if (flush) _mm_setcsr(saved | _MM_FLUSH_ZERO_ON | 0x0040 /* DAZ */);
+    }
     ~FlushDenormals() { _mm_setcsr(saved); }
   } flush_denormals(kFloat && !ieee_denormals);
   Bench bench;
@@ -365,10 +415,11 @@ int run_testbench(int argc, char** argv) {
     }
     bench.drain();
   }
-  std::printf("%s unit %s (%d-clock pipeline): %zu edge-case operand sets (%zu structured, %zu from extreme values), %zu recorded from "
-              "renders; %zu compared, %zu mismatches (%zu in the edge cases)\n",
-              std::string(Operands::kName).c_str(), kFormat.c_str(), Ports::kLatency, edge_count, structured,
-              edge_count - structured, recorded, bench.compared, bench.mismatches, edge_mismatches);
+  std::printf(
+      "%s unit %s (%d-clock pipeline): %zu edge-case operand sets (%zu structured, %zu from extreme values), %zu recorded from "
+      "renders; %zu compared, %zu mismatches (%zu in the edge cases)\n",
+      std::string(Operands::kName).c_str(), kFormat.c_str(), Ports::kLatency, edge_count, structured, edge_count - structured, recorded,
+      bench.compared, bench.mismatches, edge_mismatches);
   if (bench.mismatches > 0) return 1;
   if (recorded < min_recorded) {
     std::fprintf(stderr, "only %zu recorded operand sets, %zu asked for\n", recorded, min_recorded);

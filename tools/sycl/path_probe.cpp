@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "flat/flat_scene.hpp"
-#include "scene/scene.hpp"
 #include "loading/scene_loader.hpp"
+#include "scene/scene.hpp"
 
 namespace {
 
@@ -119,9 +119,9 @@ void print_trace(const char* where, const Trace& trace) {
   const char* stages[] = {"?", "walk", "hit", "escaped", "scattered", "absorbed", "WALK GAVE UP"};
   for (u32 i = 0; i < trace.records && i < kMaxRecords; ++i) {
     const Record& r = trace.record[i];
-    std::printf("  bounce %2u %-12s o (%.9g %.9g %.9g) d (%.9g %.9g %.9g) t %.9g prim %u visits %u\n", r.bounce,
-                stages[r.stage < 7 ? r.stage : 0], r.origin[0], r.origin[1], r.origin[2], r.direction[0], r.direction[1],
-                r.direction[2], static_cast<double>(r.t), r.primitive, r.visits);
+    std::printf("  bounce %2u %-12s o (%.9g %.9g %.9g) d (%.9g %.9g %.9g) t %.9g prim %u visits %u\n", r.bounce, stages[r.stage < 7 ? r.stage : 0],
+                r.origin[0], r.origin[1], r.origin[2], r.direction[0], r.direction[1], r.direction[2], static_cast<double>(r.t), r.primitive,
+                r.visits);
   }
   std::fflush(stdout);
 }
@@ -241,7 +241,8 @@ int region(sycl::queue& queue, const SceneView<T>& view, u32 x0, u32 y0, u32 w, 
       const Trace& t = traces[i];
       const u32 n = __atomic_load_n(&t.records, __ATOMIC_ACQUIRE);
       const Record& last = t.record[n > 0 ? n - 1 : 0];
-      std::printf("  pixel (%u, %u): %u records, last: bounce %u stage %u visits %u\n", x0 + i % w, y0 + i / w, n, last.bounce, last.stage, last.visits);
+      std::printf("  pixel (%u, %u): %u records, last: bounce %u stage %u visits %u\n", x0 + i % w, y0 + i / w, n, last.bounce, last.stage,
+                  last.visits);
     }
     for (u32 i = 0; i < w * h; ++i) {
       const u32 n = __atomic_load_n(&traces[i].records, __ATOMIC_ACQUIRE);
@@ -293,7 +294,8 @@ int main(int argc, char** argv) {
   sycl::queue queue = gpu_queue();
   std::printf("device: %s\n", queue.get_device().get_info<sycl::info::device::name>().c_str());
   const SceneView<T> view = place_scene(flat, [&](const auto& array, const char*) { return upload(queue, array); });
-  if (mode == "find") return find(queue, view, static_cast<u32>(std::atoi(argv[5])), static_cast<u32>(std::atoi(argv[6])), argc > 7 ? std::atof(argv[7]) : 5.0);
+  if (mode == "find")
+    return find(queue, view, static_cast<u32>(std::atoi(argv[5])), static_cast<u32>(std::atoi(argv[6])), argc > 7 ? std::atof(argv[7]) : 5.0);
   if (mode == "trace" && argc >= 8)
     return trace(queue, flat, view, static_cast<u32>(std::atoi(argv[5])), static_cast<u32>(std::atoi(argv[6])), static_cast<u32>(std::atoi(argv[7])),
                  argc > 8 ? std::atof(argv[8]) : 5.0);

@@ -5,8 +5,8 @@
 
 #include "backends/cpu/cpu_backend.hpp"
 #include "backends/cpu/cpu_device.hpp"
-#include "base/scalar_types.hpp"
 #include "backends/device_backend.hpp"
+#include "base/scalar_types.hpp"
 
 namespace pt {
 
@@ -15,7 +15,6 @@ std::unique_ptr<RenderBackend<T>> make_cpu_backend(unsigned threads, Integrator 
   return std::make_unique<DeviceBackend<CpuDevice, T>>(integrator, threads);
 }
 
-#define PT_INSTANTIATE_CPU_BACKEND(...) \
-  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_cpu_backend<__VA_ARGS__>(unsigned, Integrator);
+#define PT_INSTANTIATE_CPU_BACKEND(...) template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_cpu_backend<__VA_ARGS__>(unsigned, Integrator);
 
 }  // namespace pt

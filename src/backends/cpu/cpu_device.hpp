@@ -58,9 +58,7 @@ class CpuDevice {
   // Launches run to completion before they return, so the wall clock times them.
   using Timer = std::chrono::steady_clock::time_point;
   Timer start_timer() const { return std::chrono::steady_clock::now(); }
-  void stop_timer(Timer start, double* seconds) const {
-    *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  }
+  void stop_timer(Timer start, double* seconds) const { *seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); }
 
   u64 saturations() const { return saturations_.load(std::memory_order_relaxed); }
 

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "base/scalar_types.hpp"
 #include "backends/device_backend.hpp"
+#include "base/scalar_types.hpp"
 
 namespace pt {
 
@@ -45,8 +45,7 @@ class CudaDevice {
     int count = 0;
     check(cudaGetDeviceCount(&count), "looking for GPUs");
     if (count == 0) throw BackendError("cuda: no GPU found");
-    if (index < 0 || index >= count)
-      throw BackendError("cuda: there is no GPU " + std::to_string(index) + " (" + std::to_string(count) + " found)");
+    if (index < 0 || index >= count) throw BackendError("cuda: there is no GPU " + std::to_string(index) + " (" + std::to_string(count) + " found)");
     check(cudaSetDevice(index), "selecting the GPU");
     check(cudaGetDeviceProperties(&properties_, index), "reading the GPU's properties");
   }
@@ -153,14 +152,12 @@ static_assert(Device<CudaDevice>);
 
 }  // namespace cuda_detail
 
-
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_cuda_backend(int device, Integrator integrator) {
   return std::make_unique<DeviceBackend<cuda_detail::CudaDevice, T>>(integrator, device);
 }
 
-#define PT_INSTANTIATE_CUDA_BACKEND(...) \
-  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_cuda_backend<__VA_ARGS__>(int, Integrator);
+#define PT_INSTANTIATE_CUDA_BACKEND(...) template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_cuda_backend<__VA_ARGS__>(int, Integrator);
 PT_FOR_EACH_FLOATING_TYPE(PT_INSTANTIATE_CUDA_BACKEND)
 
 int cuda_device_count() {

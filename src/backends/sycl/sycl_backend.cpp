@@ -19,8 +19,8 @@
 
 #include <fmt/format.h>
 
-#include "base/scalar_types.hpp"
 #include "backends/device_backend.hpp"
+#include "base/scalar_types.hpp"
 
 namespace pt {
 
@@ -44,9 +44,9 @@ std::string one_line(const std::string& text) {
 
 std::string describe(const sycl::device& device) {
   const char* kind = device.is_gpu() ? "gpu" : device.is_cpu() ? "cpu" : device.is_accelerator() ? "accelerator" : "device";
-  std::string text = fmt::format("{} ({}, {}; {} compute units", device.get_info<sycl::info::device::name>(), kind,
-                                 device.get_platform().get_info<sycl::info::platform::name>(),
-                                 device.get_info<sycl::info::device::max_compute_units>());
+  std::string text =
+      fmt::format("{} ({}, {}; {} compute units", device.get_info<sycl::info::device::name>(), kind,
+                  device.get_platform().get_info<sycl::info::platform::name>(), device.get_info<sycl::info::device::max_compute_units>());
   // Host devices may report no real limit (AdaptiveCpp's OpenMP device says 2^64 bytes); only a real size helps.
   const double gib = static_cast<double>(device.get_info<sycl::info::device::global_mem_size>()) / 1073741824.0;
   if (gib > 0 && gib < 1e6) text += fmt::format(", {:.1f} GiB", gib);
@@ -84,20 +84,22 @@ sycl::device pick_device(int index) {
 class SyclDevice {
  public:
   explicit SyclDevice(int index)
-      : index_(index), device_(pick_device(index)), host_(device_.is_cpu()),
-        profiling_(device_.has(sycl::aspect::queue_profiling)), queue_(make_queue()), description_(describe(device_)) {
+      : index_(index),
+        device_(pick_device(index)),
+        host_(device_.is_cpu()),
+        profiling_(device_.has(sycl::aspect::queue_profiling)),
+        queue_(make_queue()),
+        description_(describe(device_)) {
     // The film sums samples in double whatever the scalar type, so a device without fp64 cannot run the kernel.
     if (!device_.has(sycl::aspect::fp64))
-      throw BackendError(fmt::format("sycl: device {} ({}) has no double precision, which the film needs", index_,
-                                     device_.get_info<sycl::info::device::name>()));
+      throw BackendError(
+          fmt::format("sycl: device {} ({}) has no double precision, which the film needs", index_, device_.get_info<sycl::info::device::name>()));
   }
   SyclDevice(const SyclDevice&) = delete;
   SyclDevice& operator=(const SyclDevice&) = delete;
 
   std::string kind() const { return "sycl"; }
-  std::string description() const {
-    return fmt::format("device {}: {}", index_ < 0 ? std::string("default") : std::to_string(index_), description_);
-  }
+  std::string description() const { return fmt::format("device {}: {}", index_ < 0 ? std::string("default") : std::to_string(index_), description_); }
   bool host() const { return host_; }
   // What `auto` takes here: the megakernel, on the host and on GPUs alike. On the H200 through AdaptiveCpp the
   // megakernel was the faster on every benchmark scene (its wavefront's intersect stage runs 4x slower than nvcc's;
@@ -224,7 +226,8 @@ class SyclDevice {
     return guarded("creating a queue", [&] {
       sycl::property_list properties = profiling_ ? sycl::property_list{sycl::property::queue::in_order(), sycl::property::queue::enable_profiling()}
                                                   : sycl::property_list{sycl::property::queue::in_order()};
-      return sycl::queue(device_, [this](sycl::exception_list errors) { collect(errors); }, properties);
+      return sycl::queue(
+          device_, [this](sycl::exception_list errors) { collect(errors); }, properties);
     });
   }
 
@@ -260,8 +263,7 @@ std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device, Integrator integ
   return std::make_unique<DeviceBackend<SyclDevice, T>>(integrator, device);
 }
 
-#define PT_INSTANTIATE_SYCL_BACKEND(...) \
-  template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_sycl_backend<__VA_ARGS__>(int, Integrator);
+#define PT_INSTANTIATE_SYCL_BACKEND(...) template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_sycl_backend<__VA_ARGS__>(int, Integrator);
 PT_FOR_EACH_FLOATING_TYPE(PT_INSTANTIATE_SYCL_BACKEND)
 
 void list_sycl_devices() {
