@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages pathtracer builds with, and the hardware tools (Verilator for the units' tests, Yosys
-# and nextpnr for their synthesis), as root; does nothing when they are all there.
-#   install-deps.sh         what the release, debug, asan and tsan presets need (the build and the tests)
-#   install-deps.sh fuzz    that and clang 16 with its runtimes, which the fuzz preset compiles with (libFuzzer)
+# Installs the Debian 12 packages pathtracer builds with and Verilator for the intersection units' tests, as root;
+# does nothing when they are all there.
+#   install-deps.sh            what the release, debug, asan and tsan presets need (the build and the tests)
+#   install-deps.sh fuzz       that and clang 16 with its runtimes, which the fuzz preset compiles with (libFuzzer)
+#   install-deps.sh synthesis  that and Yosys, nextpnr and IceStorm, which synthesise the units (tools/hardware/synth.py)
 set -euo pipefail
 packages=(cmake ninja-build g++ libtbb-dev libfmt-dev libcli11-dev nlohmann-json3-dev libstb-dev libopenexr-dev zlib1g-dev
           libgtest-dev libbenchmark-dev libtinyobjloader-dev libtinygltf-dev assimp-testmodels libopenmpi-dev openmpi-bin
-          python3 verilator yosys nextpnr-ice40 fpga-icestorm)
+          python3 verilator)
 for extra in "$@"; do
   case "$extra" in
     fuzz) packages+=(clang-16 libclang-rt-16-dev) ;;
-    *) echo "install-deps.sh: unknown set '$extra' (known: fuzz)" >&2; exit 2 ;;
+    synthesis) packages+=(yosys nextpnr-ice40 fpga-icestorm) ;;
+    *) echo "install-deps.sh: unknown set '$extra' (known: fuzz, synthesis)" >&2; exit 2 ;;
   esac
 done
 missing=()
