@@ -1,4 +1,4 @@
-// Image files: stb reads 8-bit textures; PNG is written here through zlib, OpenEXR through its library, PFM plainly.
+// Image files: stb reads 8-bit textures (once their data is checked complete: image_data_check.hpp); PNG is written here through zlib, OpenEXR through its library, PFM plainly.
 #include "image/image_io.hpp"
 
 #include <fcntl.h>
@@ -16,6 +16,7 @@
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -33,6 +34,7 @@
 #include "base/errors.hpp"
 #include "base/input_file.hpp"
 #include "base/parallel_loop.hpp"
+#include "image/image_data_check.hpp"
 
 namespace pt {
 
@@ -88,18 +90,40 @@ void check_texture_size(const std::string& subject, u64 width, u64 height) {
                     subject, width, height, kMaxTextureSide, kMaxTextureTexels));
 }
 
-// Where an image's bytes come from: a file, which stb reads through its FILE interface (so that only the header is
-// read before the size is checked), or memory. decode_texture takes the same steps for both.
+// Where an image's bytes come from: a file, whose header stb reads through its FILE interface (so that only the
+// header is read before the size is checked), or memory. decode_texture takes the same steps for both.
 class TextureSource {
  public:
   virtual ~TextureSource() = default;
   // Up to `size` bytes from the start; returns how many there were.
   virtual std::size_t header(unsigned char* out, std::size_t size) = 0;
-  // All the bytes (read only for the JPEG check).
+  // All the bytes, read once the header's size is checked; they are what stb decodes.
   virtual std::span<const unsigned char> all() = 0;
   virtual bool stb_info(int* width, int* height, int* channels) = 0;
-  virtual unsigned char* stb_load(int* width, int* height, int* channels) = 0;
 };
+
+// Refuses an image whose data ends before its header says, or whose structure would make stb_image loop
+// (image_data_check.hpp), and one too large for stb_image's int lengths.
+void check_image_data(std::span<const unsigned char> bytes, const std::string& subject) {
+  if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw InputError(fmt::format("cannot read {}: {} bytes, more than an image may have", subject, bytes.size()));
+  if (const std::optional<std::string> problem = image_data_problem(bytes)) throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
+}
+
+// A whole file's bytes, as many as there are.
+std::vector<unsigned char> read_all(int fd) {
+  struct stat status {};
+  if (::fstat(fd, &status) != 0 || status.st_size <= 0) return {};
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(status.st_size));
+  std::size_t got = 0;
+  while (got < bytes.size()) {
+    const ssize_t n = ::pread(fd, bytes.data() + got, bytes.size() - got, static_cast<off_t>(got));
+    if (n <= 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  bytes.resize(got);
+  return bytes;
+}
 
 class FileTextureSource final : public TextureSource {
  public:
@@ -109,20 +133,10 @@ class FileTextureSource final : public TextureSource {
     return got > 0 ? static_cast<std::size_t>(got) : 0;
   }
   std::span<const unsigned char> all() override {
-    struct stat status {};
-    if (::fstat(fd_, &status) != 0 || status.st_size <= 0) return {};
-    bytes_.resize(static_cast<std::size_t>(status.st_size));
-    std::size_t got = 0;
-    while (got < bytes_.size()) {
-      const ssize_t n = ::pread(fd_, bytes_.data() + got, bytes_.size() - got, static_cast<off_t>(got));
-      if (n <= 0) break;
-      got += static_cast<std::size_t>(n);
-    }
-    bytes_.resize(got);
+    if (bytes_.empty()) bytes_ = read_all(fd_);
     return bytes_;
   }
   bool stb_info(int* width, int* height, int* channels) override { return stbi_info_from_file(file_, width, height, channels) != 0; }
-  unsigned char* stb_load(int* width, int* height, int* channels) override { return stbi_load_from_file(file_, width, height, channels, 0); }
 
  private:
   int fd_;
@@ -141,9 +155,6 @@ class MemoryTextureSource final : public TextureSource {
   std::span<const unsigned char> all() override { return bytes_; }
   bool stb_info(int* width, int* height, int* channels) override {
     return stbi_info_from_memory(bytes_.data(), static_cast<int>(bytes_.size()), width, height, channels) != 0;
-  }
-  unsigned char* stb_load(int* width, int* height, int* channels) override {
-    return stbi_load_from_memory(bytes_.data(), static_cast<int>(bytes_.size()), width, height, channels, 0);
   }
 
  private:
@@ -164,10 +175,12 @@ TextureImage decode_texture(TextureSource& source, const std::string& subject) {
     throw InputError(fmt::format("cannot read {}: {}", subject, reason ? reason : "unknown format"));
   }
   check_texture_size(subject, static_cast<u64>(width), static_cast<u64>(height));
+  const std::span<const unsigned char> bytes = source.all();
+  check_image_data(bytes, subject);
   // Decoded with the image's own channels and expanded to RGB here, as stb_image would (grey repeated, alpha
   // dropped): the system's stb_image (2.27) converts a 16-bit grey PGM to RGB as if it had 8-bit samples and then
   // reads past the converted buffer.
-  unsigned char* pixels = source.stb_load(&width, &height, &channels);
+  unsigned char* pixels = stbi_load_from_memory(bytes.data(), static_cast<int>(bytes.size()), &width, &height, &channels, 0);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot decode {}: {}", subject, reason ? reason : "unknown error"));
@@ -273,14 +286,16 @@ LinearImage read_exr_environment(const std::filesystem::path& path, const std::s
   }
 }
 
-LinearImage read_hdr_environment(std::FILE* file, const std::string& subject) {
+LinearImage read_hdr_environment(std::FILE* file, int fd, const std::string& subject) {
   int width = 0, height = 0, channels = 0;
   if (!stbi_info_from_file(file, &width, &height, &channels)) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot read {}: {}", subject, reason ? reason : "unknown format"));
   }
   check_environment_size(subject, static_cast<u64>(width), static_cast<u64>(height));
-  float* pixels = stbi_loadf_from_file(file, &width, &height, &channels, 3);
+  const std::vector<unsigned char> bytes = read_all(fd);
+  check_image_data(bytes, subject);
+  float* pixels = stbi_loadf_from_memory(bytes.data(), static_cast<int>(bytes.size()), &width, &height, &channels, 3);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot decode {}: {}", subject, reason ? reason : "unknown error"));
@@ -307,10 +322,10 @@ LinearImage read_environment_image(const std::filesystem::path& path) {
   } else {
     std::FILE* file = ::fdopen(input.descriptor(), "rb");
     if (!file) throw InputError(fmt::format("cannot read {}: {}", subject, std::strerror(errno)));
-    input.release();
+    const int fd = input.release();
     const std::unique_ptr<std::FILE, int (*)(std::FILE*)> owned(file, &std::fclose);
     if (stbi_is_hdr_from_file(file)) {
-      image = read_hdr_environment(file, subject);
+      image = read_hdr_environment(file, fd, subject);
     } else {
       const TextureImage bytes = read_texture_image(path);
       check_environment_size(subject, bytes.width, bytes.height);
@@ -527,8 +542,11 @@ void write_exr(AtomicFile& file, const ImageRows& image) {
 
 }  // namespace
 
-void check_output_path(const std::filesystem::path& path) {
-  auto refuse = [&](const std::string& reason) { throw InputError(fmt::format("{}: cannot write the image: {}", path.string(), reason)); };
+void check_output_path(const std::filesystem::path& named) {
+  auto refuse = [&](const std::string& reason) { throw InputError(fmt::format("{}: cannot write the image: {}", named.string(), reason)); };
+  const std::filesystem::path path = written_path(named);
+  // A file that exists and may not be written is refused, as cp refuses it (the write itself would replace it).
+  if (std::filesystem::exists(path) && ::access(path.c_str(), W_OK) != 0) refuse(fmt::format("it is read-only ({})", std::strerror(errno)));
   std::filesystem::path folder = path.parent_path();
   if (folder.empty()) folder = ".";
   std::error_code error;

@@ -1,0 +1,300 @@
+// Walks the structure of the image formats stb_image reads past the end of (image_data_check.hpp), as stb_image
+// 2.27 reads them, and says what is missing. Each walk only counts bytes; none decodes pixels.
+#include "image/image_data_check.hpp"
+
+#include <cstring>
+
+#include <fmt/format.h>
+
+namespace pt {
+namespace {
+
+// A cursor over the bytes; every read past the end is noted, not performed.
+class ByteWalk {
+ public:
+  explicit ByteWalk(std::span<const u8> bytes) : bytes_(bytes) {}
+  std::size_t position() const { return position_; }
+  std::size_t size() const { return bytes_.size(); }
+  bool has(u64 count) const { return count <= bytes_.size() - position_; }
+  // The next byte, or 0 past the end (then `has` was false: callers check before they trust it).
+  unsigned byte() { return position_ < bytes_.size() ? bytes_[position_++] : 0u; }
+  unsigned byte_at(std::size_t at) const { return at < bytes_.size() ? bytes_[at] : 0u; }
+  u64 le16(std::size_t at) const { return byte_at(at) | (u64{byte_at(at + 1)} << 8); }
+  u64 le32(std::size_t at) const { return le16(at) | (le16(at + 2) << 16); }
+  u64 be16(std::size_t at) const { return (u64{byte_at(at)} << 8) | byte_at(at + 1); }
+  u64 be32(std::size_t at) const { return (be16(at) << 16) | be16(at + 2); }
+  void seek(u64 at) { position_ = at < bytes_.size() ? static_cast<std::size_t>(at) : bytes_.size(); }
+  // Skips `count` bytes; false when fewer are left.
+  bool skip(u64 count) {
+    if (!has(count)) {
+      position_ = bytes_.size();
+      return false;
+    }
+    position_ += static_cast<std::size_t>(count);
+    return true;
+  }
+
+ private:
+  std::span<const u8> bytes_;
+  std::size_t position_ = 0;
+};
+
+std::string short_by(const char* what, u64 needed, std::size_t size) {
+  return fmt::format("truncated: {} would end at byte {}, the image has {} bytes", what, needed, size);
+}
+
+bool starts_with(std::span<const u8> bytes, const char* magic) {
+  const std::size_t n = std::strlen(magic);
+  return bytes.size() >= n && std::memcmp(bytes.data(), magic, n) == 0;
+}
+
+// Radiance RGBE: header lines up to an empty one, the resolution line "-Y H +X W", then H scanlines, each either W
+// flat four-byte pixels or (for 8 <= W < 32768, starting 2 2 W/256 W%256) four channels of run-length data. stb
+// takes a scanline that does not start so as the first of flat pixels to the end of the image.
+std::optional<std::string> radiance_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  // The header: lines until an empty one.
+  std::size_t line_start = 0;
+  for (;;) {
+    if (!walk.has(1)) return "truncated: the Radiance header has no end (an empty line)";
+    if (walk.byte() != '\n') continue;
+    if (walk.position() - line_start == 1) break;
+    line_start = walk.position();
+  }
+  const std::size_t resolution_start = walk.position();
+  while (walk.has(1) && walk.byte() != '\n') {
+  }
+  unsigned long long height = 0, width = 0;
+  const std::string line(reinterpret_cast<const char*>(bytes.data()) + resolution_start, walk.position() - resolution_start);
+  if (std::sscanf(line.c_str(), "-Y %llu +X %llu", &height, &width) != 2) return std::nullopt;  // stb refuses it itself
+  const u64 flat_bytes = u64{4} * width * height;
+  for (u64 row = 0; row < height; ++row) {
+    const bool run_length = width >= 8 && width < 32768 && walk.byte_at(walk.position()) == 2 && walk.byte_at(walk.position() + 1) == 2 &&
+                            (walk.byte_at(walk.position() + 2) & 0x80) == 0;
+    if (!run_length) {
+      const u64 rest = flat_bytes - u64{4} * width * row;
+      if (!walk.has(rest)) return short_by("the rest of the Radiance image, as flat pixels,", walk.position() + rest, bytes.size());
+      return std::nullopt;
+    }
+    if (!walk.has(4)) return short_by("a Radiance scanline", walk.position() + 4, bytes.size());
+    if ((walk.byte_at(walk.position() + 2) << 8 | walk.byte_at(walk.position() + 3)) != width)
+      return std::nullopt;  // stb refuses a scanline of the wrong width itself
+    walk.skip(4);
+    for (int channel = 0; channel < 4; ++channel) {
+      for (u64 done = 0; done < width;) {
+        if (!walk.has(1)) return fmt::format("truncated: Radiance scanline {} of {} ends at byte {} inside its run-length data", row + 1, height, bytes.size());
+        unsigned count = walk.byte();
+        const bool run = count > 128;
+        if (run) count -= 128;
+        // stb_image 2.27 loops for ever on an empty run.
+        if (count == 0) return fmt::format("corrupt: Radiance scanline {} has a run of length 0 at byte {}", row + 1, walk.position() - 1);
+        if (count > width - done) return std::nullopt;  // stb refuses a run past the scanline itself
+        if (!walk.skip(run ? 1 : count))
+          return fmt::format("truncated: Radiance scanline {} of {} ends at byte {} inside its run-length data", row + 1, height, bytes.size());
+        done += count;
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+// TGA: an 18-byte header, an ID, a palette, then pixels, plain or in run-length packets.
+std::optional<std::string> tga_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  if (!walk.has(18)) return short_by("a TGA header", 18, bytes.size());
+  const unsigned id_length = walk.byte_at(0), indexed = walk.byte_at(1), type = walk.byte_at(2);
+  const u64 palette_start = walk.le16(3), palette_length = walk.le16(5), palette_bits = walk.byte_at(7);
+  const u64 width = walk.le16(12), height = walk.le16(14), bits = walk.byte_at(16);
+  if ((type & 7) < 1 || (type & 7) > 3) return std::nullopt;
+  const bool run_length = type >= 8;
+  const auto bytes_of = [](u64 bits_per_value) { return bits_per_value == 15 || bits_per_value == 16 ? u64{2} : (bits_per_value + 7) / 8; };
+  walk.seek(18);
+  if (!walk.skip(id_length)) return short_by("the TGA's image ID", 18 + u64{id_length}, bytes.size());
+  u64 pixel_bytes = bytes_of(bits);
+  if (indexed) {
+    const u64 palette_end = walk.position() + palette_start + palette_length * bytes_of(palette_bits);
+    if (!walk.skip(palette_start + palette_length * bytes_of(palette_bits))) return short_by("the TGA's palette", palette_end, bytes.size());
+    pixel_bytes = bits == 8 ? 1 : 2;
+  }
+  const u64 pixels = width * height;
+  if (!run_length) {
+    const u64 needed = walk.position() + pixels * pixel_bytes;
+    return walk.has(pixels * pixel_bytes) ? std::nullopt : std::optional(short_by("the TGA's pixels", needed, bytes.size()));
+  }
+  for (u64 done = 0; done < pixels;) {
+    if (!walk.has(1)) return fmt::format("truncated: the TGA's run-length data ends at byte {} after {} of {} pixels", bytes.size(), done, pixels);
+    const unsigned packet = walk.byte();
+    const u64 count = (packet & 127) + 1;
+    if (!walk.skip(packet & 128 ? pixel_bytes : count * pixel_bytes))
+      return fmt::format("truncated: the TGA's run-length data ends at byte {} after {} of {} pixels", bytes.size(), done, pixels);
+    done += count;
+  }
+  return std::nullopt;
+}
+
+// BMP: rows of 4-byte multiples from the pixel data's offset.
+std::optional<std::string> bmp_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  if (!walk.has(26)) return short_by("a BMP header", 26, bytes.size());
+  const u64 offset = walk.le32(10), header_size = walk.le32(14);
+  u64 width = 0, height = 0, bits = 0;
+  if (header_size == 12) {
+    width = walk.le16(18), height = walk.le16(20), bits = walk.le16(24);
+  } else {
+    if (!walk.has(30)) return short_by("a BMP header", 30, bytes.size());
+    width = walk.le32(18);
+    const auto signed_height = static_cast<std::int32_t>(walk.le32(22));
+    height = signed_height < 0 ? u64{0} - static_cast<std::int64_t>(signed_height) : static_cast<u64>(signed_height);
+    bits = walk.le16(28);
+  }
+  if (width > (u64{1} << 24) || height > (u64{1} << 24) || bits == 0 || bits > 32) return std::nullopt;  // stb refuses these itself
+  // Every row is padded to four bytes; the last one's padding may be left out.
+  const u64 row_bytes = (width * bits + 31) / 32 * 4, needed = height == 0 ? offset : offset + row_bytes * (height - 1) + (width * bits + 7) / 8;
+  return needed <= bytes.size() ? std::nullopt : std::optional(short_by("the BMP's pixel rows", needed, bytes.size()));
+}
+
+// Binary PGM and PPM: "P5" or "P6", width, height and the largest value, separated by white space and comments,
+// one white-space byte, then the samples (two bytes each above 255).
+std::optional<std::string> pnm_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  const u64 channels = bytes[1] == '5' ? 1 : 3;
+  walk.seek(2);
+  u64 values[3] = {};
+  const char* names[3] = {"width", "height", "largest value"};
+  unsigned c = walk.byte();
+  for (int i = 0; i < 3; ++i) {
+    for (;;) {
+      while (walk.has(1) && (c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r')) c = walk.byte();
+      if (!walk.has(1) || c != '#') break;
+      while (walk.has(1) && c != '\n' && c != '\r') c = walk.byte();
+    }
+    // stb reads a missing number as 0, and the samples after it as zeros.
+    if (c < '0' || c > '9') return fmt::format("{}: the PNM header has no {}", walk.has(1) ? "corrupt" : "truncated", names[i]);
+    while (c >= '0' && c <= '9' && values[i] < (u64{1} << 40)) {
+      values[i] = values[i] * 10 + (c - '0');
+      c = walk.byte();
+    }
+  }
+  if (values[2] == 0) return "corrupt: the PNM's largest value is 0";
+  if (values[2] > 65535) return std::nullopt;  // stb refuses it itself
+  const u64 sample_bytes = values[2] > 255 ? 2 : 1;
+  const u64 needed = walk.position() + values[0] * values[1] * channels * sample_bytes;
+  return needed <= bytes.size() ? std::nullopt : std::optional(short_by("the PNM's samples", needed, bytes.size()));
+}
+
+// Photoshop: a 26-byte header, three sections of given lengths, then the first four channels' planes, plain or as
+// PackBits rows after a table of the rows' lengths.
+std::optional<std::string> psd_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  if (!walk.has(26)) return short_by("a PSD header", 26, bytes.size());
+  const u64 channels = walk.be16(12), height = walk.be32(14), width = walk.be32(18), depth = walk.be16(22);
+  if (channels > 16 || (depth != 8 && depth != 16) || width > (u64{1} << 24) || height > (u64{1} << 24)) return std::nullopt;
+  walk.seek(26);
+  for (const char* section : {"colour mode data", "image resources", "layer and mask data"}) {
+    if (!walk.has(4)) return short_by(fmt::format("the PSD's {} length", section).c_str(), walk.position() + 4, bytes.size());
+    const u64 length = walk.be32(walk.position());
+    walk.skip(4);
+    if (!walk.skip(length)) return short_by(fmt::format("the PSD's {}", section).c_str(), walk.position() + length, bytes.size());
+  }
+  if (!walk.has(2)) return short_by("the PSD's compression", walk.position() + 2, bytes.size());
+  const u64 compression = walk.be16(walk.position());
+  walk.skip(2);
+  const u64 pixels = width * height, read_channels = channels < 4 ? channels : 4;
+  if (compression == 0) {
+    const u64 needed = walk.position() + read_channels * pixels * (depth / 8);
+    return needed <= bytes.size() ? std::nullopt : std::optional(short_by("the PSD's channels", needed, bytes.size()));
+  }
+  if (compression != 1) return std::nullopt;
+  if (!walk.skip(height * channels * 2)) return short_by("the PSD's row lengths", walk.position() + height * channels * 2, bytes.size());
+  for (u64 channel = 0; channel < read_channels; ++channel) {
+    for (u64 done = 0; done < pixels;) {
+      if (!walk.has(1)) return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
+      const unsigned length = walk.byte();
+      if (length == 128) continue;
+      const u64 count = length < 128 ? length + 1 : 257 - length;
+      if (count > pixels - done) return std::nullopt;  // stb refuses the run itself
+      if (!walk.skip(length < 128 ? count : 1))
+        return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
+      done += count;
+    }
+  }
+  return std::nullopt;
+}
+
+// GIF: a header, a screen descriptor and colour table, then blocks up to the first image's data, which ends with an
+// empty sub-block.
+std::optional<std::string> gif_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  if (!walk.has(13)) return short_by("a GIF header", 13, bytes.size());
+  const auto colour_table = [](unsigned flags) { return flags & 0x80 ? u64{3} << ((flags & 7) + 1) : u64{0}; };
+  walk.seek(13);
+  if (!walk.skip(colour_table(walk.byte_at(10)))) return short_by("the GIF's colour table", 13 + colour_table(walk.byte_at(10)), bytes.size());
+  const auto sub_blocks = [&walk]() {
+    for (;;) {
+      if (!walk.has(1)) return false;
+      const unsigned length = walk.byte();
+      if (length == 0) return true;
+      if (!walk.skip(length)) return false;
+    }
+  };
+  const std::string truncated = fmt::format("truncated: the GIF ends at byte {} before its first image is complete", bytes.size());
+  for (;;) {
+    if (!walk.has(1)) return truncated;
+    const unsigned block = walk.byte();
+    if (block == 0x21) {  // an extension: its label, then sub-blocks
+      if (!walk.skip(1) || !sub_blocks()) return truncated;
+    } else if (block == 0x2C) {  // an image: its descriptor, a colour table, the code size, then sub-blocks
+      if (!walk.has(9)) return truncated;
+      const unsigned flags = walk.byte_at(walk.position() + 8);
+      if (!walk.skip(9) || !walk.skip(colour_table(flags)) || !walk.skip(1) || !sub_blocks()) return truncated;
+      return std::nullopt;
+    } else {
+      return std::nullopt;  // the trailer, or a block stb refuses itself
+    }
+  }
+}
+
+// JPEG: segments (a marker, then a big-endian length that counts itself) up to the first scan, whose entropy-coded
+// data, and that of any later scans, ends with the end-of-image marker FF D9. That marker cannot occur inside the
+// data (a data byte FF is followed by 00), so a file cut short has none after its first scan. The segments are
+// walked, not searched, since an Exif segment may hold a whole thumbnail JPEG, end-of-image marker included.
+std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  walk.seek(2);
+  for (;;) {
+    if (!walk.has(2)) return fmt::format("truncated: the JPEG ends at byte {} before its image data", bytes.size());
+    if (walk.byte() != 0xFF) return std::nullopt;  // not a marker: stb refuses it itself
+    unsigned marker = walk.byte();
+    while (marker == 0xFF && walk.has(1)) marker = walk.byte();  // fill bytes
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // markers without a segment
+    if (marker == 0xD9) return std::nullopt;                              // an image without a scan: stb refuses it
+    if (!walk.has(2)) return fmt::format("truncated: the JPEG ends at byte {} inside a segment's length", bytes.size());
+    const u64 length = walk.be16(walk.position());
+    if (length < 2) return std::nullopt;
+    if (!walk.skip(length)) return fmt::format("truncated: the JPEG ends at byte {} inside a segment of {} bytes", bytes.size(), length);
+    if (marker == 0xDA) break;
+  }
+  for (std::size_t i = walk.position(); i + 1 < bytes.size(); ++i)
+    if (bytes[i] == 0xFF && bytes[i + 1] == 0xD9) return std::nullopt;
+  return fmt::format("truncated: the JPEG ends at byte {} without its end-of-image marker", bytes.size());
+}
+
+}  // namespace
+
+std::optional<std::string> image_data_problem(std::span<const u8> bytes) {
+  if (bytes.size() < 2) return std::nullopt;
+  if (starts_with(bytes, "#?")) return radiance_problem(bytes);
+  if (bytes[0] == 'B' && bytes[1] == 'M') return bmp_problem(bytes);
+  if (bytes[0] == 'P' && (bytes[1] == '5' || bytes[1] == '6')) return pnm_problem(bytes);
+  if (starts_with(bytes, "8BPS")) return psd_problem(bytes);
+  if (starts_with(bytes, "GIF8")) return gif_problem(bytes);
+  if (bytes[0] == 0xFF && bytes[1] == 0xD8) return jpeg_problem(bytes);
+  static constexpr u8 kPng[4] = {0x89, 'P', 'N', 'G'};
+  if (bytes.size() >= 4 && std::memcmp(bytes.data(), kPng, 4) == 0) return std::nullopt;  // zlib's stream ends or fails
+  // TGA has no magic number: stb takes what its header test accepts as one (image types 1-3 and 9-11).
+  const unsigned type = bytes.size() >= 3 ? bytes[2] : 0;
+  if ((type >= 1 && type <= 3) || (type >= 9 && type <= 11)) return tga_problem(bytes);
+  return std::nullopt;
+}
+
+}  // namespace pt

@@ -1,0 +1,216 @@
+// Image files cut short, in every format stb_image reads: each is refused on one line naming the image, never
+// decoded with zeros or uninitialised memory in place of the missing texels, and never left looping.
+#include <signal.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <stb/stb_image_write.h>
+
+#include "image/image_data_check.hpp"
+#include "image/image_io.hpp"
+#include "test_support.hpp"
+
+// A namespace of its own: the test files are compiled several to a source (tests/CMakeLists.txt).
+namespace pt::truncated_images {
+namespace {
+
+constexpr int kWidth = 8, kHeight = 6;  // 8 x 3 bytes a row: no BMP padding; at least 8 wide: run-length HDR
+
+// Texels with some runs and some noise, so that run-length encoders write both kinds of packet.
+std::vector<u8> texels(int channels, int width = kWidth) {
+  std::vector<u8> bytes(static_cast<std::size_t>(width) * kHeight * channels);
+  u32 state = 12345;
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    state = state * 1664525u + 1013904223u;
+    bytes[i] = (i / channels) % 3 == 0 ? static_cast<u8>(40 * (i % channels)) : static_cast<u8>(state >> 24);
+  }
+  return bytes;
+}
+
+void append(void* context, void* data, int size) { static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size)); }
+
+std::string written(const std::function<int(std::string*)>& write) {
+  std::string bytes;
+  EXPECT_NE(write(&bytes), 0);
+  return bytes;
+}
+
+std::string png() {
+  const std::vector<u8> pixels = texels(3);
+  return written([&](std::string* out) { return stbi_write_png_to_func(append, out, kWidth, kHeight, 3, pixels.data(), kWidth * 3); });
+}
+std::string bmp() {
+  const std::vector<u8> pixels = texels(3);
+  return written([&](std::string* out) { return stbi_write_bmp_to_func(append, out, kWidth, kHeight, 3, pixels.data()); });
+}
+std::string tga(bool run_length) {
+  const std::vector<u8> pixels = texels(3);
+  const int before = stbi_write_tga_with_rle;
+  stbi_write_tga_with_rle = run_length ? 1 : 0;
+  std::string bytes = written([&](std::string* out) { return stbi_write_tga_to_func(append, out, kWidth, kHeight, 3, pixels.data()); });
+  stbi_write_tga_with_rle = before;
+  return bytes;
+}
+std::string jpeg() {
+  const std::vector<u8> pixels = texels(3);
+  return written([&](std::string* out) { return stbi_write_jpg_to_func(append, out, kWidth, kHeight, 3, pixels.data(), 90); });
+}
+// Width 8 is written as run-length scanlines, width 7 as flat pixels.
+std::string radiance(int width) {
+  const std::vector<u8> bytes = texels(3, width);
+  std::vector<float> pixels(bytes.begin(), bytes.end());
+  for (float& p : pixels) p /= 64.0f;
+  return written([&](std::string* out) { return stbi_write_hdr_to_func(append, out, width, kHeight, 3, pixels.data()); });
+}
+std::string ppm() {
+  const std::vector<u8> pixels = texels(3);
+  return "P6\n# a comment\n8 6\n255\n" + std::string(pixels.begin(), pixels.end());
+}
+std::string pgm16() {
+  const std::vector<u8> pixels = texels(2);
+  return "P5\n8 6\n65535\n" + std::string(pixels.begin(), pixels.end());
+}
+// Photoshop RGB, 8 bits, three channel planes, plain or as PackBits rows (each row one literal packet).
+std::string psd(bool run_length) {
+  std::string bytes = "8BPS";
+  const auto be16 = [&](unsigned v) { bytes += static_cast<char>(v >> 8), bytes += static_cast<char>(v & 255); };
+  const auto be32 = [&](u32 v) { be16(v >> 16), be16(v & 0xffff); };
+  be16(1);
+  bytes.append(6, '\0');
+  be16(3), be32(kHeight), be32(kWidth), be16(8), be16(3);
+  be32(0), be32(0), be32(0);  // colour mode data, image resources, layers
+  be16(run_length ? 1 : 0);
+  const std::vector<u8> planes = texels(3);
+  if (!run_length) return bytes + std::string(planes.begin(), planes.end());
+  for (int row = 0; row < 3 * kHeight; ++row) be16(kWidth + 1);
+  for (int row = 0; row < 3 * kHeight; ++row) {
+    bytes += static_cast<char>(kWidth - 1);
+    bytes.append(reinterpret_cast<const char*>(planes.data()) + row * kWidth, kWidth);
+  }
+  return bytes;
+}
+// One texel, white, from a two-entry global colour table; the last byte is the trailer, which stb does not need.
+std::string gif() { return std::string("GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00\x2c\x00\x00\x00\x00\x01\x00\x01\x00\x00\x02\x02\x44\x01\x00\x3b", 35); }
+
+struct Format {
+  const char* name;
+  std::string bytes;
+  std::size_t needed;  // the bytes stb needs of it: a cut anywhere before this is refused
+};
+
+std::vector<Format> formats() {
+  std::vector<Format> all;
+  const auto add = [&](const char* name, std::string bytes, std::size_t unneeded_tail = 0) {
+    const std::size_t needed = bytes.size() - unneeded_tail;
+    all.push_back({name, std::move(bytes), needed});
+  };
+  add("png", png(), 12);  // the IEND chunk: stb stops at its type
+  add("bmp", bmp());
+  add("tga", tga(false));
+  add("rle.tga", tga(true));
+  add("jpg", jpeg());
+  add("rle.hdr", radiance(8));
+  add("flat.hdr", radiance(7));
+  add("ppm", ppm());
+  add("16.pgm", pgm16());
+  add("psd", psd(false));
+  add("rle.psd", psd(true));
+  add("gif", gif(), 1);
+  return all;
+}
+
+std::span<const u8> span_of(const std::string& bytes) { return {reinterpret_cast<const u8*>(bytes.data()), bytes.size()}; }
+
+TEST(TruncatedImages, EveryFormatReadsWholeAndIsRefusedWhenCutAnywhere) {
+  for (const Format& format : formats()) {
+    SCOPED_TRACE(format.name);
+    ASSERT_FALSE(image_data_problem(span_of(format.bytes)).has_value()) << *image_data_problem(span_of(format.bytes));
+    if (std::string(format.name).ends_with("hdr")) {
+      test::TempDir dir;
+      test::write_text_file(dir / format.name, format.bytes);
+      EXPECT_EQ(read_environment_image(dir / format.name).width, std::string(format.name) == "flat.hdr" ? 7u : 8u);
+    } else {
+      const TextureImage whole = read_texture_image_from_memory(span_of(format.bytes), format.name);
+      EXPECT_EQ(whole.width * whole.height, std::string(format.name) == "gif" ? 1u : u32{kWidth * kHeight});
+    }
+    // From a file too, cut by one byte and by a quarter: files and memory take the same checks.
+    for (const std::size_t cut : {format.needed - 1, format.needed * 3 / 4}) {
+      test::TempDir dir;
+      test::write_text_file(dir / format.name, format.bytes.substr(0, cut));
+      const bool radiance = std::string(format.name).ends_with("hdr");
+      EXPECT_THROW(radiance ? (void)read_environment_image(dir / format.name) : (void)read_texture_image(dir / format.name), InputError) << cut;
+    }
+    for (std::size_t cut = 1; cut < format.needed; ++cut) {
+      const std::string part = format.bytes.substr(0, cut);
+      try {
+        read_texture_image_from_memory(span_of(part), format.name);
+        ADD_FAILURE() << "accepted when cut to " << cut << " of " << format.bytes.size() << " bytes";
+      } catch (const InputError& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("image '" + std::string(format.name) + "'"), std::string::npos) << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+      }
+    }
+  }
+}
+
+// The bytes that make stb_image 2.27 loop for ever (CVE-2021-42715): a Radiance header, then the start of one
+// run-length scanline and the end of the file; and a scanline with a run of length 0. Both are refused as
+// environments and as textures; a header without pixels is refused too.
+TEST(TruncatedImages, RadianceScanlinesThatWouldNeverEndAreRefused) {
+  test::TempDir dir;
+  const std::string header = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 32 +X 64\n";
+  const std::string cases[] = {header + std::string("\x02\x02\x00\x40", 4), header + std::string("\x02\x02\x00\x40\x00\x00", 6), header};
+  const char* expected[] = {"truncated: Radiance scanline 1 of 32", "corrupt: Radiance scanline 1 has a run of length 0", "truncated"};
+  for (int i = 0; i < 3; ++i) {
+    test::write_text_file(dir / "sky.hdr", cases[i]);
+    try {
+      read_environment_image(dir / "sky.hdr");
+      ADD_FAILURE() << i;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("cannot read image file '" + (dir / "sky.hdr").string() + "': " + expected[i]), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(read_texture_image(dir / "sky.hdr"), InputError) << i;
+    EXPECT_THROW(read_texture_image_from_memory(span_of(cases[i]), "sky"), InputError) << i;
+  }
+}
+
+// The same bytes read twice give the same texels: an uncompressed TGA cut short once left the missing texels as
+// whatever the allocator returned.
+TEST(TruncatedImages, TruncatedTgaFileIsRefusedNotFilledWithUninitialisedMemory) {
+  test::TempDir dir;
+  const std::string whole = tga(false);
+  test::write_text_file(dir / "cut.tga", whole.substr(0, whole.size() / 2));
+  try {
+    read_texture_image(dir / "cut.tga");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot read image file '" + (dir / "cut.tga").string() + "': truncated: the TGA's pixels would end at byte " +
+                                         std::to_string(whole.size()) + ", the image has " + std::to_string(whole.size() / 2) + " bytes"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// A render whose environment is a truncated Radiance file ends by itself with one line naming the file and the
+// value that names it, and status 1; a signal while the scene loads ends the program at once.
+TEST(TruncatedImages, RenderWithATruncatedEnvironmentEndsWithOneLine) {
+  test::TempDir dir;
+  test::write_text_file(dir / "sky.hdr", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 32 +X 64\n" + std::string("\x02\x02\x00\x40", 4));
+  test::write_text_file(dir / "scene.json", R"({"camera": {"look_from": [0, 0, 1], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "render": {"width": 8, "height": 8, "samples_per_pixel": 1}, "background": {"type": "environment", "file": "sky.hdr"},
+    "objects": [{"type": "sphere", "center": [0, 0, -1], "radius": 0.5, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}]})");
+  const test::CommandResult result = test::run_pathtracer("render " + test::quoted(dir / "scene.json") + " -o " + test::quoted(dir / "out.png"), dir);
+  EXPECT_EQ(result.exit_code, 1) << result.err;
+  EXPECT_NE(result.err.find("/background/file: cannot read image file"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("truncated: Radiance scanline 1 of 32"), std::string::npos) << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.png"));
+}
+
+}  // namespace
+}  // namespace pt::truncated_images
