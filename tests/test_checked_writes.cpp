@@ -167,3 +167,67 @@ TEST(CheckedNumericsWrites, AnyFailureLeavesTheFolderAsItWas) {
 
 }  // namespace
 }  // namespace pt
+
+namespace pt {
+namespace {
+
+// Outputs never overwrite inputs: the image, the checkpoint, the scene and every file it reads are different files,
+// compared by device and inode. Once `--checkpoint scene.json` replaced the scene with a film and exited 0, and
+// `--checkpoint out.pfm -o out.pfm` left an image where the film was to be.
+TEST(OutputsAndInputs, AnOutputThatIsAnInputIsRefusedBeforeRendering) {
+  test::TempDir dir;
+  LinearImage sky;
+  sky.width = 4, sky.height = 2;
+  sky.rgb.assign(24, 0.5f);
+  write_image(dir / "sky.png", sky);
+  const std::string sky_bytes = test::read_text_file(dir / "sky.png");
+  const std::string scene_text = R"({"camera": {"look_from": [0, 0, 1], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "render": {"width": 8, "height": 8, "samples_per_pixel": 2}, "background": {"type": "environment", "file": "sky.png"},
+    "objects": [{"type": "sphere", "center": [0, 0, -1], "radius": 0.5, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}]})";
+  test::write_text_file(dir / "scene.json", scene_text);
+  std::filesystem::create_hard_link(dir / "sky.png", dir / "same-sky.png");
+  const std::string scene = test::quoted(dir / "scene.json") + " ";
+  const auto refused = [&](const std::string& arguments, const std::string& expected) {
+    const test::CommandResult result = test::run_pathtracer("render " + scene + arguments, dir);
+    EXPECT_EQ(result.exit_code, 1) << arguments << "\n" << result.err;
+    EXPECT_NE(result.err.find(expected), std::string::npos) << arguments << "\n" << result.err;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  };
+  refused("--checkpoint " + test::quoted(dir / "scene.json") + " -o " + test::quoted(dir / "out.png"),
+          (dir / "scene.json").string() + ": cannot write the checkpoint there: it is '" + (dir / "scene.json").string() + "', which this render reads");
+  refused("-o " + test::quoted(dir / "same-sky.png"), "cannot write the image there: it is '" + (dir / "sky.png").string() + "', which this render reads");
+  refused("--checkpoint " + test::quoted(dir / "out.pfm") + " -o " + test::quoted(dir / "." / "out.pfm"), "cannot write the image and the checkpoint to one file");
+  EXPECT_EQ(test::read_text_file(dir / "scene.json"), scene_text);
+  EXPECT_EQ(test::read_text_file(dir / "sky.png"), sky_bytes);
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.pfm"));
+  // A resumed film saved again where it was read is the usual way to go on: allowed.
+  const std::string film = test::quoted(dir / "film.pfm");
+  ASSERT_EQ(test::run_pathtracer("render " + scene + "--checkpoint " + film + " -o " + test::quoted(dir / "a.pfm"), dir).exit_code, 0);
+  const test::CommandResult resumed =
+      test::run_pathtracer("render " + scene + "--spp 4 --resume " + film + " --checkpoint " + film + " -o " + test::quoted(dir / "b.pfm"), dir);
+  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+  // The image onto the film resumed is refused.
+  refused("--spp 6 --resume " + film + " -o " + film, "which this render reads");
+}
+
+// An image written to a symbolic link lands in the file the link points to; the link stays (once it was replaced by
+// the image), whether its file exists yet or not, and through a chain of links.
+TEST(OutputsAndInputs, ImageWrittenThroughASymbolicLinkKeepsTheLink) {
+  test::TempDir dir;
+  std::filesystem::create_directory(dir / "elsewhere");
+  std::filesystem::create_symlink("elsewhere/new.pfm", dir / "link.pfm");
+  std::filesystem::create_symlink("link.pfm", dir / "link-to-link.pfm");
+  const std::string scene = test::quoted(test::scene_path("tiny.json"));
+  for (const char* name : {"link.pfm", "link-to-link.pfm"}) {
+    const test::CommandResult result = test::run_pathtracer("render " + scene + " --width 8 --height 6 --spp 1 -q -o " + test::quoted(dir / name), dir);
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    EXPECT_TRUE(std::filesystem::is_symlink(dir / "link.pfm"));
+    EXPECT_TRUE(std::filesystem::is_symlink(dir / "link-to-link.pfm"));
+    EXPECT_EQ(test::read_pfm(dir / "elsewhere" / "new.pfm").width, 8u);
+    std::filesystem::remove(dir / "elsewhere" / "new.pfm");
+  }
+}
+
+}  // namespace
+}  // namespace pt

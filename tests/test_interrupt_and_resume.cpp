@@ -10,6 +10,8 @@
 #include <initializer_list>
 #include <thread>
 
+#include <fmt/format.h>
+
 #include "film/checkpoint.hpp"
 #include "film/film.hpp"
 #include "test_support.hpp"
@@ -105,6 +107,46 @@ TEST(Checkpoint, CutShortOrForeignFileIsRefused) {
   test::write_text_file(dir / "b.film", "not a film at all, but long enough to hold a header");
   EXPECT_THROW(read_checkpoint(dir / "b.film", key), InputError);
   EXPECT_THROW(read_checkpoint(dir / "missing.film", key), InputError);
+}
+
+// One flipped bit anywhere in a checkpoint, in its header, a pixel's sums or the checksum itself, is refused on one
+// line naming the file; once such a film resumed into a wrong image with status 0.
+TEST(Checkpoint, AnyFlippedBitIsRefused) {
+  test::TempDir dir;
+  const CheckpointKey key = checkpoint_key("scene", "settings", 3, 2);
+  std::vector<FilmPixel> film(6);
+  for (std::size_t i = 0; i < film.size(); ++i) film[i] = FilmPixel{0.25 * i, 0.5, 1.0 + i, static_cast<u32>(i), 3};
+  write_checkpoint(dir / "a.film", key, film, 3);
+  const std::string whole = test::read_text_file(dir / "a.film");
+  for (std::size_t byte = 0; byte < whole.size(); ++byte) {
+    for (const int bit : {0, 5}) {
+      std::string flipped = whole;
+      flipped[byte] = static_cast<char>(flipped[byte] ^ (1 << bit));
+      test::write_text_file(dir / "b.film", flipped);
+      try {
+        read_checkpoint(dir / "b.film", key);
+        ADD_FAILURE() << "accepted with bit " << bit << " of byte " << byte << " flipped";
+      } catch (const InputError& e) {
+        const std::string message = e.what();
+        EXPECT_EQ(message.rfind((dir / "b.film").string() + ": cannot resume: ", 0), 0u) << message;
+        EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+      }
+    }
+  }
+  // The film's own bytes: the checksum is what finds them.
+  std::string flipped = whole;
+  flipped[whole.size() - 20] ^= 1;
+  test::write_text_file(dir / "b.film", flipped);
+  EXPECT_THROW(
+      {
+        try {
+          read_checkpoint(dir / "b.film", key);
+        } catch (const InputError& e) {
+          EXPECT_NE(std::string(e.what()).find("its checksum does not match its content"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      InputError);
 }
 
 #ifdef PT_PATHTRACER_BINARY
@@ -221,6 +263,70 @@ TEST(Interrupt, SigtermExits143) {
   test::TempDir dir;
   EXPECT_EQ(exit_status_after(dir, "", {SIGTERM}), 143);
   EXPECT_TRUE(std::filesystem::exists(dir / "image.pfm"));
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+
+// While the scene loads there is nothing to save: the first signal ends the program at once, with no image, where
+// it once waited for the loading to end and the first pass to be rendered.
+TEST(Interrupt, SignalWhileTheSceneLoadsEndsAtOnce) {
+  test::TempDir dir;
+  // A grid of 2 million triangles as a binary PLY: seconds to read and to build its BVH.
+  constexpr u32 kSide = 1001;
+  std::string ply = fmt::format(
+      "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+      kSide * kSide, 2 * (kSide - 1) * (kSide - 1));
+  const auto put = [&](const auto value) { ply.append(reinterpret_cast<const char*>(&value), sizeof value); };
+  for (u32 y = 0; y < kSide; ++y)
+    for (u32 x = 0; x < kSide; ++x) put(float(x) / kSide), put(float(y) / kSide), put(float((x * 7 + y * 13) % 5) / (5 * kSide));
+  for (u32 y = 0; y + 1 < kSide; ++y)
+    for (u32 x = 0; x + 1 < kSide; ++x) {
+      const int corner = static_cast<int>(y * kSide + x), side = static_cast<int>(kSide);
+      put(u8{3}), put(corner), put(corner + 1), put(corner + side);
+      put(u8{3}), put(corner + 1), put(corner + side + 1), put(corner + side);
+    }
+  test::write_text_file(dir / "grid.ply", ply);
+  test::write_text_file(dir / "scene.json", R"({"camera": {"look_from": [0.5, 0.5, 2], "look_at": [0.5, 0.5, 0], "vertical_fov": 40},
+    "render": {"width": 16, "height": 16, "samples_per_pixel": 1}, "objects": [{"type": "mesh", "file": "grid.ply"}]})");
+  const std::string command = "exec '" + test::pathtracer_binary() + "' render " + test::quoted(dir / "scene.json") + " --threads 2 -o " +
+                              test::quoted(dir / "image.pfm") + " 2> " + test::quoted(dir / "stderr.txt");
+  const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+  pid_t pid = -1;
+  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ), 0);
+  // Once the program catches SIGTERM (its handler is installed first thing; a sanitized process takes a while to get
+  // there), while it reads the grid.
+  const auto catches_sigterm = [&] {
+    std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+    for (std::string line; std::getline(status, line);)
+      if (line.starts_with("SigCgt:")) return ((std::stoull(line.substr(7), nullptr, 16) >> (SIGTERM - 1)) & 1) != 0;
+    return false;
+  };
+  for (int i = 0; i < 3000 && !catches_sigterm(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(catches_sigterm());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  kill(pid, SIGTERM);
+  const auto signalled = std::chrono::steady_clock::now();
+  EXPECT_EQ(exit_status_within(pid, 60), 143);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count(), 1.0);
+  EXPECT_FALSE(std::filesystem::exists(dir / "image.pfm"));
+  EXPECT_EQ(test::read_text_file(dir / "stderr.txt"), "");
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+
+// A checkpoint that cannot be written (its folder gone, as a full disk would) does not cost the image: the render
+// goes on, the image is written, and the status is 1 with a line naming the checkpoint. Once no image was written.
+TEST(Checkpoint, FailedCheckpointStillWritesTheImage) {
+  test::TempDir dir;
+  std::filesystem::create_directory(dir / "saves");
+  const pid_t pid = start_long_render(dir, " --time-limit 3 --checkpoint " + test::quoted(dir / "saves" / "film") + " --checkpoint-interval 0.1");
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  std::filesystem::remove_all(dir / "saves");
+  EXPECT_EQ(exit_status_within(pid, 120), 1);
+  const std::string err = test::read_text_file(dir / "stderr.txt");
+  EXPECT_NE(err.find("warning: " + (dir / "saves" / "film").string() + ": cannot write the checkpoint"), std::string::npos) << err;
+  EXPECT_NE(err.find("pathtracer: error: " + (dir / "saves" / "film").string() + ": cannot write the checkpoint"), std::string::npos) << err;
+  EXPECT_NE(err.find("(the image was written to " + (dir / "image.pfm").string() + ")"), std::string::npos) << err;
+  EXPECT_EQ(test::read_pfm(dir / "image.pfm").width, 64u);
   EXPECT_FALSE(temporaries_left(dir.path()));
 }
 

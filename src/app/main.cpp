@@ -27,6 +27,7 @@
 #include "backends/multi_backend.hpp"
 #include "backends/registry.hpp"
 #include "base/atomic_file.hpp"
+#include "base/input_file.hpp"
 #include "base/number_formats.hpp"
 #include "film/checkpoint.hpp"
 #include "film/film.hpp"
@@ -120,14 +121,16 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
 }
 
 // SIGINT or SIGTERM: the first asks the render to stop after the pass under way (or to give it up, under MPI) and
-// write what it has; a second ends the program at once, removing the temporaries of files being written. The
-// status is 128 + the signal.
+// write what it has; a second ends the program at once, removing the temporaries of files being written. Before
+// the render starts (the scene loading, its files read, the flattening) there is nothing to save, and the first
+// ends the program at once. The status is 128 + the signal.
 std::atomic<int> interrupt_signal{0};
-static_assert(std::atomic<int>::is_always_lock_free, "the signal handler needs a lock-free flag");
+std::atomic<bool> rendering{false};
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free, "the signal handler needs lock-free flags");
 
 extern "C" void on_interrupt(int signal) {
   int none = 0;
-  if (interrupt_signal.compare_exchange_strong(none, signal)) return;
+  if (rendering.load() && interrupt_signal.compare_exchange_strong(none, signal)) return;
   remove_temporaries_now();
   _exit(128 + signal);
 }
@@ -139,6 +142,35 @@ void catch_interrupts() {
   action.sa_flags = SA_RESTART;  // the file writes go on through the first signal
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
+}
+
+// Whether two paths name one file: by device and inode where both exist, else by their paths made absolute with
+// links resolved.
+bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
+  const std::optional<FileIdentity> first = identity_of(a), second = identity_of(b);
+  if (first && second) return *first == *second;
+  std::error_code ignored;
+  return std::filesystem::weakly_canonical(a, ignored) == std::filesystem::weakly_canonical(b, ignored);
+}
+
+// Neither the image nor the checkpoint (run_render has checked that they are two files) is a file this render reads (the scene, its model files
+// and images, a film resumed), compared by device and inode, not by name: an output never replaces an input. A
+// resumed film may be saved again where it was read.
+void check_outputs_are_not_inputs(const RenderOptions& options) {
+  std::vector<FileRead> inputs = files_read();
+  if (!options.resume.empty())
+    if (const std::optional<FileIdentity> resumed = identity_of(options.resume)) inputs.push_back({*resumed, options.resume});
+  const auto check = [&](const std::string& output, const char* what) {
+    const std::optional<FileIdentity> identity = identity_of(output);
+    if (!identity) return;
+    for (const FileRead& input : inputs) {
+      if (input.identity != *identity) continue;
+      if (output == options.checkpoint && !options.resume.empty() && same_file(input.path, options.resume)) continue;
+      throw InputError(fmt::format("{}: cannot write {} there: it is '{}', which this render reads", output, what, input.path.string()));
+    }
+  };
+  check(options.output, "the image");
+  if (!options.checkpoint.empty()) check(options.checkpoint, "the checkpoint");
 }
 
 // What a saved film must match to be resumed: the scene file's bytes and every setting that decides a sample.
@@ -202,6 +234,7 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
   const RenderSettings settings = effective_settings(options, scene);
   const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene<T>(scene, settings); });
   phases.add("  of which BVH build", flat.bvh_seconds);
+  check_outputs_are_not_inputs(options);
   const auto wait_start = Clock::now();
   std::unique_ptr<RenderBackend<T>> backend = starting.get();
   phases.add("device start (overlapped)", device_seconds);
@@ -222,10 +255,19 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
   RenderControl control;
   control.stop_requested = [] { return interrupt_signal.load() != 0; };
   control.time_limit_seconds = options.time_limit;
+  // A checkpoint that cannot be written (a full disk) does not cost the render: it goes on, saying so once, later
+  // saves try again, and the image is written; the status is then 1, naming what failed.
+  std::optional<std::string> checkpoint_failure;
   if (!options.checkpoint.empty()) {
     control.checkpoint_interval_seconds = options.checkpoint_interval;
     control.checkpoint = [&](std::span<const FilmPixel> pixels, u32 samples_done) {
-      write_checkpoint(options.checkpoint, key, pixels, samples_done);
+      try {
+        write_checkpoint(options.checkpoint, key, pixels, samples_done);
+        checkpoint_failure.reset();
+      } catch (const InputError& e) {
+        if (!checkpoint_failure && !options.quiet) fmt::print(stderr, "{}warning: {}; rendering on\n", show_progress ? "\n" : "", e.what());
+        checkpoint_failure = e.what();
+      }
     };
   }
   Checkpoint resumed;
@@ -240,6 +282,7 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
       fmt::print(stderr, "resuming {} at {} of {} samples per pixel\n", options.resume, resumed.samples_done, settings.samples_per_pixel);
   }
   // The film is resolved band by band as the image is encoded, never copied whole (BENCHMARKS.md, memory).
+  rendering = true;
   const RenderedFilm film = render_film(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback(), control);
   if (show_progress && film.stopped_early) fmt::print(stderr, "\n");
   const int caught = interrupt_signal.load();
@@ -263,10 +306,14 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     if (film.stopped_early)
       fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n",
                  caught ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM") : "the time limit", film.samples_done, settings.samples_per_pixel,
-                 options.checkpoint.empty() ? "" : fmt::format("; film saved to {}", options.checkpoint));
+                 options.checkpoint.empty() || checkpoint_failure ? "" : fmt::format("; film saved to {}", options.checkpoint));
     if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
   }
   if (options.verbose) phases.print(seconds_since(program_start));
+  if (checkpoint_failure) {
+    fmt::print(stderr, "pathtracer: error: {} (the image was written to {})\n", *checkpoint_failure, options.output);
+    return kErrorExitCode;
+  }
   return caught ? 128 + caught : 0;
 }
 
@@ -275,6 +322,8 @@ int run_render(const RenderOptions& options, Clock::time_point program_start, Di
   image_format_for(options.output);
   check_output_path(options.output);
   if (!options.checkpoint.empty()) check_output_path(options.checkpoint);
+  if (!options.checkpoint.empty() && same_file(options.output, options.checkpoint))
+    throw InputError(fmt::format("{}: cannot write the image and the checkpoint to one file", options.output));
   catch_interrupts();
   return with_number_format(options.number_format, [&]<class T>() { return render_with<T>(options, program_start, mpi); });
 }
@@ -300,6 +349,7 @@ void serve_with(const RenderOptions& options, Distributed& mpi) {
   } catch (const std::exception& e) {
     mpi.report_failure(e.what());
   }
+  rendering = true;
   mpi.serve(width, [&](const BandWork& work, std::span<FilmPixel> band) {
     if (!backend) throw BackendError("this rank failed at its start");
     backend->render_rows(work.first_row, work.row_count, work.first_sample, work.sample_count, band);

@@ -74,7 +74,18 @@ void inject_file_failure(FileStep step, int error, std::uint64_t after_bytes) {
   injected.step = step;
 }
 
-AtomicFile::AtomicFile(std::filesystem::path target, std::string what) : target_(std::move(target)), what_(std::move(what)) {
+std::filesystem::path written_path(const std::filesystem::path& path) {
+  std::filesystem::path resolved = path;
+  std::error_code error;
+  for (int links = 0; links < 40 && std::filesystem::is_symlink(resolved, error); ++links) {
+    const std::filesystem::path next = std::filesystem::read_symlink(resolved, error);
+    if (error) break;
+    resolved = next.is_absolute() ? next : resolved.parent_path() / next;
+  }
+  return resolved;
+}
+
+AtomicFile::AtomicFile(std::filesystem::path target, std::string what) : target_(written_path(target)), what_(std::move(what)) {
   std::filesystem::path folder = target_.parent_path();
   if (folder.empty()) folder = ".";
   // Hidden, unique to this process and call, and with the target's extension (for whoever finds a stray one).

@@ -17,6 +17,10 @@ namespace pt {
 // Writing happens in two steps so that several files can be published together (all or nothing): finish() puts
 // the bytes on disk and closes the temporary; publish() renames it into place. A file destroyed before publish()
 // removes its temporary.
+// Where a write to `path` lands: the file its symbolic links lead to (a link is written through, not replaced),
+// or `path` itself. A chain of more than 40 links is left as it is (the write then fails as the system says).
+std::filesystem::path written_path(const std::filesystem::path& path);
+
 class AtomicFile {
  public:
   // Creates the temporary. `what` names the content in messages ("the image", "the table").

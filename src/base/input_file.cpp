@@ -8,11 +8,15 @@
 
 #include <cerrno>
 #include <cstring>
+#include <mutex>
 #include <utility>
 
 namespace pt {
 
 namespace {
+
+std::mutex files_read_mutex;
+std::vector<FileRead> files_read_so_far;
 
 const char* kind_of(mode_t mode) {
   if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
@@ -56,7 +60,20 @@ InputFile InputFile::open(const std::filesystem::path& path) {
   }
   ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   file.fd_ = fd;
+  const std::lock_guard lock(files_read_mutex);
+  files_read_so_far.push_back({FileIdentity{status.st_dev, status.st_ino}, path});
   return file;
+}
+
+std::optional<FileIdentity> identity_of(const std::filesystem::path& path) {
+  struct stat status {};
+  if (::stat(path.c_str(), &status) != 0) return std::nullopt;
+  return FileIdentity{status.st_dev, status.st_ino};
+}
+
+std::vector<FileRead> files_read() {
+  const std::lock_guard lock(files_read_mutex);
+  return files_read_so_far;
 }
 
 InputFile::InputFile(InputFile&& other) noexcept : problem_(other.problem_), reason_(std::move(other.reason_)), fd_(std::exchange(other.fd_, -1)) {}

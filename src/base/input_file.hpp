@@ -2,10 +2,33 @@
 // as one is refused at once, with what it is, instead of blocking on it or reading it forever.
 #pragma once
 
+#include <sys/types.h>
+
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace pt {
+
+// Which file a path names, whatever the name: its device and inode.
+struct FileIdentity {
+  dev_t device = 0;
+  ino_t inode = 0;
+  bool operator==(const FileIdentity&) const = default;
+};
+
+// The identity of an existing file (links followed), or nothing.
+std::optional<FileIdentity> identity_of(const std::filesystem::path& path);
+
+struct FileRead {
+  FileIdentity identity;
+  std::filesystem::path path;
+};
+
+// Every file InputFile::open has opened in this process (scenes, model files, textures): what outputs are checked
+// never to overwrite.
+std::vector<FileRead> files_read();
 
 class InputFile {
  public:

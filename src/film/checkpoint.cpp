@@ -1,6 +1,10 @@
-// Saved films: the file layout (a fixed header, then the film's pixels as they are in memory) and its checks.
+// Saved films: the file layout (a fixed header, then the film's pixels as they are in memory, then a checksum of
+// both) and its checks.
 #include "film/checkpoint.hpp"
 
+#include <zlib.h>
+
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 
@@ -12,7 +16,8 @@
 namespace pt {
 namespace {
 
-constexpr char kMagic[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '1'};
+constexpr char kMagic[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '2'};
+constexpr char kMagicWithoutChecksum[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '1'};
 
 // Everything before the pixels. FilmPixel's layout is part of the format: a change of it changes the magic.
 struct Header {
@@ -23,6 +28,20 @@ struct Header {
   u32 pixel_bytes;
 };
 static_assert(sizeof(FilmPixel) == 32, "the checkpoint format stores FilmPixel as 32 bytes");
+
+// CRC-32 (zlib's) of the header and the film, stored after the film: a flipped bit anywhere is found. zlib takes
+// lengths as unsigned int, so a large film is summed in pieces.
+u32 checksum(const Header& header, std::span<const FilmPixel> film) {
+  uLong crc = crc32(0L, reinterpret_cast<const Bytef*>(&header), sizeof(header));
+  const auto* bytes = reinterpret_cast<const Bytef*>(film.data());
+  for (std::size_t left = film.size_bytes(); left > 0;) {
+    const std::size_t piece = std::min<std::size_t>(left, 1u << 30);
+    crc = crc32(crc, bytes, static_cast<uInt>(piece));
+    bytes += piece;
+    left -= piece;
+  }
+  return static_cast<u32>(crc);
+}
 
 // FNV-1a, 64 bits: a change of any byte of the scene or settings changes the key.
 u64 fnv1a(u64 hash, const std::string& bytes) {
@@ -45,9 +64,11 @@ void write_checkpoint(const std::filesystem::path& file, const CheckpointKey& ke
   header.height = key.height;
   header.samples_done = samples_done;
   header.pixel_bytes = sizeof(FilmPixel);
+  const u32 sum = checksum(header, film);
   AtomicFile out(file, "the checkpoint");
   out.write(&header, sizeof(header));
   out.write(film.data(), film.size_bytes());
+  out.write(&sum, sizeof(sum));
   out.publish();
 }
 
@@ -57,19 +78,23 @@ Checkpoint read_checkpoint(const std::filesystem::path& file, const CheckpointKe
   if (!std::filesystem::is_regular_file(file, error)) throw refuse("not a file that can be read");
   std::ifstream in(file, std::ios::binary);
   Header header{};
-  if (!in.read(reinterpret_cast<char*>(&header), sizeof(header)) || std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0)
-    throw refuse("not a checkpoint of this program");
+  if (!in.read(reinterpret_cast<char*>(&header), sizeof(header))) throw refuse("not a checkpoint of this program");
+  if (std::memcmp(header.magic, kMagicWithoutChecksum, sizeof(kMagic)) == 0) throw refuse("written by an older version, without a checksum");
+  if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0) throw refuse("not a checkpoint of this program");
   if (header.pixel_bytes != sizeof(FilmPixel)) throw refuse("written by a version with another film layout");
   if (header.width != key.width || header.height != key.height)
     throw refuse(fmt::format("its film is {}x{}, this render's {}x{}", header.width, header.height, key.width, key.height));
   if (header.hash != key.hash) throw refuse("it was saved for another scene or other settings (scene text, depth, seed or number format)");
   const std::size_t pixels = static_cast<std::size_t>(header.width) * header.height;
-  if (std::filesystem::file_size(file, error) != sizeof(Header) + pixels * sizeof(FilmPixel)) throw refuse("the file is cut short or too long");
+  if (std::filesystem::file_size(file, error) != sizeof(Header) + pixels * sizeof(FilmPixel) + sizeof(u32)) throw refuse("the file is cut short or too long");
   Checkpoint checkpoint;
   checkpoint.samples_done = header.samples_done;
   checkpoint.film.resize(pixels);
-  if (!in.read(reinterpret_cast<char*>(checkpoint.film.data()), static_cast<std::streamsize>(pixels * sizeof(FilmPixel))))
+  u32 stored = 0;
+  if (!in.read(reinterpret_cast<char*>(checkpoint.film.data()), static_cast<std::streamsize>(pixels * sizeof(FilmPixel))) ||
+      !in.read(reinterpret_cast<char*>(&stored), sizeof(stored)))
     throw refuse("the file is cut short");
+  if (stored != checksum(header, checkpoint.film)) throw refuse("its checksum does not match its content: the file is corrupt");
   return checkpoint;
 }
 

@@ -29,8 +29,8 @@ struct Checkpoint {
 // Writes the film atomically (a temporary, synced, renamed over `file`). Throws InputError naming the file.
 void write_checkpoint(const std::filesystem::path& file, const CheckpointKey& key, std::span<const FilmPixel> film, u32 samples_done);
 
-// Reads a checkpoint written for `key`; a file that is not one, is cut short, or belongs to another scene or
-// settings is refused with an InputError naming the file and what is wrong.
+// Reads a checkpoint written for `key`; a file that is not one, is cut short, fails its checksum, or belongs to
+// another scene or settings is refused with an InputError naming the file and what is wrong.
 Checkpoint read_checkpoint(const std::filesystem::path& file, const CheckpointKey& key);
 
 }  // namespace pt

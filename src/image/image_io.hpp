@@ -70,8 +70,9 @@ enum class ImageFormat { kPng, kPfm, kExr };
 // The format for a path's extension; throws InputError for an unknown one.
 ImageFormat image_format_for(const std::filesystem::path& path);
 
-// Checks, before any work is spent, that an image can be written at `path`: its folder exists and is a folder,
-// the path itself is not a folder, and a new file can be created beside it. Throws InputError
+// Checks, before any work is spent, that an image can be written at `path` (through its symbolic links, where the
+// write lands: base/atomic_file.hpp): its folder exists and is a folder, the path itself is not a folder nor a
+// file that may not be written, and a new file can be created beside it. Throws InputError
 // ("PATH: cannot write the image: REASON").
 void check_output_path(const std::filesystem::path& path);
 
