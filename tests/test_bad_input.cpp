@@ -577,6 +577,61 @@ TEST(SceneFileErrors, ImageSizeIsCheckedFromTheHeaderBeforeDecoding) {
   }
 }
 
+// Images too large together are refused from their headers before any is decoded: six 8192x8192 textures were
+// refused only after five had been decoded (27 s, 2 GB). Here the images have headers and no data, so decoding
+// any of them would fail with another message.
+TEST(SceneFileErrors, ImagesTooLargeTogetherAreRefusedBeforeAnyIsDecoded) {
+  test::TempDir dir;
+  std::string textures, materials, objects;
+  for (int i = 0; i < 6; ++i) {
+    test::write_text_file(dir / fmt::format("big{}.ppm", i), "P6\n8192 8192\n255\n");
+    textures += fmt::format("{}\"t{}\": {{\"type\": \"image\", \"file\": \"big{}.ppm\"}}", i ? ", " : "", i, i);
+    materials += fmt::format("{}\"m{}\": {{\"type\": \"lambertian\", \"texture\": \"t{}\"}}", i ? ", " : "", i, i);
+    objects += fmt::format("{}{{\"type\": \"sphere\", \"center\": [{}, 0, -3], \"radius\": 0.4, \"material\": \"m{}\"}}", i ? ", " : "", i, i);
+  }
+  const std::filesystem::path file = dir / "scene.json";
+  test::write_text_file(file, "{\"camera\": {\"look_from\": [0, 0, 0], \"look_at\": [0, 0, -1], \"vertical_fov\": 40},\n\"textures\": {" + textures +
+                                  "},\n\"materials\": {" + materials + "},\n\"objects\": [" + objects + "]}\n");
+  try {
+    load_scene_file(file);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind(file.string() + ":2:", 0), 0u) << message;
+    EXPECT_NE(message.find("/textures/t5/file: the scene's images are too large in total"), std::string::npos) << message;
+  }
+  // Five fit; decoding them is what finds that their data is missing, named by the place that gave the file.
+  test::write_text_file(dir / "big5.ppm", "P6\n1 1\n255\nabc");
+  try {
+    load_scene_file(file);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("/textures/t0/file: "), std::string::npos) << message;
+    EXPECT_NE(message.find("big0.ppm"), std::string::npos) << message;
+  }
+}
+
+// A value quoted in a message is cut to a few dozen characters, and no message is longer than about a thousand:
+// an error about a 50 MB string printed all of it.
+TEST(MessagesAreOneLine, LongValuesAreCut) {
+  const std::string huge(1 << 20, 'x');
+  const std::string scene = std::string("{\"camera\": {\"look_from\": [0, 0, 0], \"look_at\": [0, 0, -1], \"vertical_fov\": 40}, \"objects\": [") +
+                            "{\"type\": \"" + huge + "\"}]}";
+  try {
+    parse_scene(scene, "s.json", ".");
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_LT(message.size(), 300u) << message.substr(0, 300);
+    EXPECT_NE(message.find("unknown object type 'xxxxxxxxxx"), std::string::npos) << message.substr(0, 300);
+  }
+  const InputError long_one(std::string(5000, 'y'));
+  const std::string message = long_one.what();
+  EXPECT_LE(message.size(), kMaxErrorMessage + 40);
+  EXPECT_NE(message.find("more characters)"), std::string::npos) << message;
+}
+
 TEST(SceneFileErrors, JpegHuffmanTableOfMoreThan256CodesIsRefused) {
   // A DHT segment whose 16 code counts add up to 512: stb_image 2.27 wrote the table's code lengths and values past
   // their arrays (found by fuzz/fuzz_texture_image). The file is refused before stb_image reads it.
@@ -910,7 +965,9 @@ TEST_F(CommandLineErrors, CommandLineMistakesExitWithTheInputErrorCode) {
       {"numerics", "scene"},
       {"numerics " + test::quoted(scene_) + " --formats q99.99", "--formats"},
       {"", "subcommand"},
-      {"paint", "A subcommand is required"},
+      {"paint", "'paint' is not a command (render, bench, numerics, devices)"},
+      {"rendr", "'rendr' is not a command (render, bench, numerics, devices); did you mean 'render'?"},
+      {"devises", "did you mean 'devices'?"},
   };
   for (const auto& [arguments, names] : cases) {
     SCOPED_TRACE(arguments);

@@ -513,6 +513,74 @@ TEST(GltfWrittenFiles, TextureCoordinatesOfFloatsAndNormalizedIntegers) {
                   "unsigned bytes or unsigned shorts (integers normalized); accessor 1 is VEC2 of unsigned bytes"});
 }
 
+// A glTF buffer or image named with '..' (escaped or not), or by an absolute path, was followed out of the model's
+// folder; it is refused unless the user allows it.
+TEST(GltfWrittenFiles, FilesOutsideTheModelsFolderAreRefused) {
+  test::TempDir dir;
+  fs::create_directories(dir / "model");
+  LinearImage pixel{1, 1, {0.5f, 0.25f, 1.0f}};
+  write_image(dir / "outside.png", pixel);
+  const auto with_buffer = [&](const std::string& name, const std::string& uri) {
+    Document d = one_triangle();
+    d.doc["nodes"] = json::array({{{"mesh", 0}}});
+    test::write_text_file(dir / "outside.bin", d.bin);
+    d.doc["buffers"] = json::array({{{"byteLength", d.bin.size()}, {"uri", uri}}});
+    d.bin.clear();
+    return d.write(dir, "model/" + name);
+  };
+  expect_refused(with_buffer("up.gltf", "../outside.bin"), {"/buffers/0/uri: '../outside.bin' lies outside the model's folder"});
+  expect_refused(with_buffer("escaped.gltf", "%2E%2E/outside.bin"), {"/buffers/0/uri:", "outside the model's folder"});
+  expect_refused(with_buffer("absolute.gltf", (dir / "outside.bin").string()), {"/buffers/0/uri:", "is an absolute path"});
+  EXPECT_EQ(triangle_count(read_gltf_file(dir / "model/up.gltf", ModelReferences::kAnywhere)), 1u);
+
+  Document d = one_triangle();
+  d.doc["nodes"] = json::array({{{"mesh", 0}}});
+  d.doc["images"] = json::array({{{"uri", "../outside.png"}}});
+  const fs::path image = d.write(dir, "model/image.gltf");
+  expect_refused(image, {"/images/0/uri: '../outside.png' lies outside the model's folder"});
+  EXPECT_EQ(triangle_count(read_gltf_file(image, ModelReferences::kAnywhere)), 1u);
+}
+
+// A number beyond a double's range ("1e999") is named by its line, column and JSON path, as in a scene file: the
+// JSON parser's own message said only that a number overflowed.
+TEST(GltfWrittenFiles, NumberBeyondADoublesRangeIsNamedByItsPlace) {
+  test::TempDir dir;
+  Document d = one_triangle();
+  d.doc["nodes"] = json::array({{{"mesh", 0}, {"translation", {12345, 0, 0}}}});
+  const fs::path path = d.write(dir, "huge.gltf");
+  std::string text = test::read_text_file(path);
+  const std::size_t offset = text.find("12345");
+  text.replace(offset, 5, "1e999");
+  test::write_text_file(path, text);
+  const std::size_t line_start = text.rfind('\n', offset) + 1;
+  const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(offset), '\n');
+  const std::string message = expect_refused(path, {"/nodes/0/translation/0: the number 1e999 is beyond the range of a double"});
+  EXPECT_TRUE(message.starts_with(fmt::format("{}:{}:{}: ", path.string(), line, offset - line_start + 1))) << message;
+}
+
+// A node whose transform (with its parents') scales volumes beyond a double's range is refused naming the node: it
+// was dropped as if singular, and a model of one such node became "the model has no triangles to render".
+TEST(GltfWrittenFiles, TransformTooLargeToBeFiniteIsRefusedNamingTheNode) {
+  test::TempDir dir;
+  Document d = one_triangle();
+  d.doc["nodes"] = json::array({{{"children", {1}}, {"scale", {1e300, 1e300, 1e300}}}, {{"mesh", 0}}});
+  expect_refused(d.write(dir, "scale.gltf"), {"scale.gltf: /nodes/1: its transform, with its parents', is too large to be finite"});
+  // A scale of 0 hides a mesh, as animations do: skipped with a warning.
+  d.doc["nodes"] = json::array({{{"mesh", 0}, {"scale", {0, 1, 1}}}, {{"mesh", 0}}});
+  const MeshFile hidden = read_gltf_file(d.write(dir, "hidden.gltf"));
+  EXPECT_EQ(hidden.placements.size(), 1u);
+  EXPECT_TRUE(test::has_warning(hidden, "singular (a scale of 0)")) << all_warnings(hidden);
+  // A finite transform can still place a vertex beyond a double's range: named when the model is the scene.
+  d.doc["nodes"] = json::array({{{"mesh", 0}, {"scale", {1e308, 1, 1}}, {"translation", {1.7e308, 0, 0}}}});
+  const fs::path far = d.write(dir, "far.gltf");
+  try {
+    load_scene_file(far);
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), far.string() + ": vertex 1 of mesh 'mesh 0' is placed beyond a double's range (about 1.8e308)");
+  }
+}
+
 TEST(GltfWrittenFiles, MaterialFactorsEmissiveStrengthAndDefaultMaterial) {
   test::TempDir dir;
   Document d;

@@ -530,6 +530,23 @@ TEST(ObjReader, ConcavePolygonIsCutIntoEars) {
   EXPECT_NEAR(area_in_yz(file.meshes[0]), 0.2454966872, 1e-9);
 }
 
+// A model given as the scene has a camera placed to frame it: where a vertex does not fit the kernels' type, the
+// vertex is named, not the camera (which was blamed as /camera/look_from/0, a path the model does not have).
+TEST(ObjReader, VertexBeyondTheKernelsRangeIsNamedRatherThanTheCameraFramingIt) {
+  test::TempDir dir;
+  test::write_text_file(dir / "big.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n");
+  const SceneDescription scene = load_scene_file(dir / "big.obj");
+  try {
+    test::flatten<float>(scene);
+    ADD_FAILURE() << "accepted in float";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_TRUE(message.starts_with((dir / "big.obj").string() + ": 1e+39 (a vertex of mesh 'mesh 0') is beyond float's")) << message;
+    EXPECT_EQ(message.find("/camera"), std::string::npos) << message;
+  }
+  EXPECT_NO_THROW(test::flatten<double>(scene));
+}
+
 TEST(ObjReader, MaterialNameWithSpaces) {
   REQUIRE_TEST_MODELS();
   // "newmtl Hard Shiny Plastic White" and "usemtl  Hard Shiny Plastic White ": tinyobjloader alone would look up
@@ -609,6 +626,55 @@ TEST(ObjReader, MissingMaterialLibraryOrTextureIsRefused) {
   ASSERT_EQ(::mkfifo((dir / "fifo.obj").c_str(), 0600), 0);
   expect_refused(dir / "fifo.obj", {"FIFO"});
   expect_refused(dir / "absent.obj", {"cannot open the OBJ file"});
+}
+
+// A model from elsewhere may name only files in its own folder and below: `mtllib ../../../../etc/passwd` was
+// followed. The OBJ's folder bounds its libraries' textures too, links resolved.
+TEST(ObjReader, FilesOutsideTheModelsFolderAreRefused) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "model/maps");
+  LinearImage image;
+  image.width = image.height = 1;
+  image.rgb = {1, 0, 0};
+  write_image(dir / "outside.png", image);
+  write_image(dir / "model/inside.png", image);
+  test::write_text_file(dir / "outside.mtl", "newmtl red\nKd 1 0 0\n");
+  const std::string faces = kTriangleObj + "vt 0 0\nvt 1 0\nvt 1 1\nusemtl red\nf 1/1 2/2 3/3\n";
+
+  const auto obj = [&](const std::string& name, const std::string& mtllib) {
+    test::write_text_file(dir / "model" / name, "mtllib " + mtllib + "\n" + faces);
+    return dir / "model" / name;
+  };
+  expect_refused(obj("up.obj", "../outside.mtl"), {"line 1: material library", (dir / "model/../outside.mtl").string(), "outside the model's folder"});
+  expect_refused(obj("absolute.obj", (dir / "outside.mtl").string()), {"line 1: material library", "outside the model's folder"});
+  expect_refused(obj("passwd.obj", "../../../../../../../../etc/passwd"), {"line 1: material library", "outside the model's folder"});
+  std::filesystem::create_symlink(dir / "outside.mtl", dir / "model/link.mtl");
+  expect_refused(obj("link.obj", "link.mtl"), {"line 1: material library", "link.mtl", "outside the model's folder"});
+  EXPECT_EQ(read_obj_file(dir / "model/up.obj", ModelReferences::kAnywhere).materials.size(), 1u) << "allowed where the user says so";
+
+  // A library in a subfolder names textures relative to itself: up to the model's folder is inside, beyond is not.
+  test::write_text_file(dir / "model/maps/in.mtl", "newmtl red\nmap_Kd ../inside.png\n");
+  EXPECT_EQ(read_obj_file(obj("texture-in.obj", "maps/in.mtl")).textures.size(), 1u);
+  test::write_text_file(dir / "model/maps/out.mtl", "newmtl red\nKd 1 1 1\nmap_Kd ../../outside.png\n");
+  expect_refused(obj("texture-out.obj", "maps/out.mtl"), {"out.mtl: line 1: material 'red': map_Kd:", "outside.png", "outside the model's folder"});
+  EXPECT_EQ(read_obj_file(dir / "model/texture-out.obj", ModelReferences::kAnywhere).textures.size(), 1u);
+}
+
+// The program refuses such a model on one line and exit 1, and reads it with --trust-model-paths.
+TEST(ObjReader, TrustModelPathsLetsTheProgramReadOutsideTheFolder) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir / "model");
+  test::write_text_file(dir / "outside.mtl", "newmtl red\nKd 1 0 0\n");
+  test::write_text_file(dir / "model/m.obj", "mtllib ../outside.mtl\n" + kTriangleObj + "usemtl red\nf 1 2 3\nf 1 3 4\n");
+  const std::string command = "render " + test::quoted(dir / "model/m.obj") + " --width 8 --height 8 --spp 1 -o " + test::quoted(dir / "m.pfm");
+  const test::CommandResult refused = test::run_pathtracer(command, dir);
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_EQ(test::lines_of(refused.err).size(), 1u) << refused.err;
+  EXPECT_NE(refused.err.find("outside the model's folder (--trust-model-paths lets a model read it)"), std::string::npos) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.pfm"));
+  const test::CommandResult trusted = test::run_pathtracer(command + " --trust-model-paths", dir);
+  EXPECT_EQ(trusted.exit_code, 0) << trusted.err;
+  EXPECT_TRUE(std::filesystem::exists(dir / "m.pfm"));
 }
 
 TEST(ObjReader, MaterialsMapOntoBaseColourEmissionAndRoughness) {

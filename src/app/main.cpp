@@ -15,6 +15,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -63,7 +64,8 @@ struct RenderOptions {
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
   double checkpoint_interval = 60;
   double time_limit = 0;
-  u32 runs = 5;  // bench only
+  u32 runs = 5;                    // bench only
+  bool trust_model_paths = false;  // model files may name files outside their folder
 };
 
 // "auto" lets the backend pick its device's faster integrator as measured in BENCHMARKS.md: the wavefront with
@@ -228,7 +230,7 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     device_seconds = seconds_since(start);
     return made;
   });
-  const SceneDescription scene = phases.time("scene load", [&] { return load_scene_file(options.scene); });
+  const SceneDescription scene = phases.time("scene load", [&] { return load_scene_file(options.scene, model_references(options.trust_model_paths)); });
   if (!options.quiet)
     for (const std::string& warning : scene.warnings) fmt::print(stderr, "warning: {}\n", escape_control_characters(warning));
   const RenderSettings settings = effective_settings(options, scene);
@@ -336,7 +338,7 @@ void serve_with(const RenderOptions& options, Distributed& mpi) {
   std::unique_ptr<RenderBackend<T>> backend;
   u32 width = 0;
   try {
-    const SceneDescription scene = load_scene_file(options.scene);
+    const SceneDescription scene = load_scene_file(options.scene, model_references(options.trust_model_paths));
     const RenderSettings settings = effective_settings(options, scene);
     flat.emplace(flatten_scene<T>(scene, settings));
     backend = make_render_backend<T>(options.backend, parse_device_list(options.device, options.backend), options.threads, integrator_of(options),
@@ -431,7 +433,7 @@ int bench_with(const RenderOptions& options, const SceneDescription& scene, cons
 }
 
 int run_bench(const RenderOptions& options) {
-  const SceneDescription scene = load_scene_file(options.scene);
+  const SceneDescription scene = load_scene_file(options.scene, model_references(options.trust_model_paths));
   const RenderSettings settings = effective_settings(options, scene);
   return with_number_format(options.number_format, [&]<class T>() { return bench_with<T>(options, scene, settings); });
 }
@@ -447,6 +449,29 @@ int run_bench(const RenderOptions& options) {
 #else
   std::_Exit(status);
 #endif
+}
+
+// "; did you mean 'NAME'?" for the one name within two edits of `typed` (Levenshtein distance), else "".
+std::string closest_name_hint(std::string_view typed, const std::vector<std::string>& names) {
+  const auto distance = [](std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+      std::size_t diagonal = row[0];
+      row[0] = i;
+      for (std::size_t j = 1; j <= b.size(); ++j) {
+        const std::size_t above = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        diagonal = above;
+      }
+    }
+    return row[b.size()];
+  };
+  std::vector<std::string> near;
+  if (typed.size() <= 64)
+    for (const std::string& name : names)
+      if (distance(typed, name) <= 2) near.push_back(name);
+  return near.size() == 1 ? "; did you mean '" + near[0] + "'?" : "";
 }
 
 }  // namespace
@@ -504,6 +529,8 @@ int main(int argc, char** argv) {
                      "sobol (each pixel's samples stratified in every dimension: Owen-scrambled Sobol points) or independent "
                      "(uncorrelated random numbers); the scene's, else sobol, if omitted")
         ->check(CLI::IsMember({"sobol", "independent"}));
+    command->add_flag("--trust-model-paths", options.trust_model_paths,
+                      "Let model files (OBJ, MTL, glTF) name files outside their own folder: absolute paths, '..', links that lead out");
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")
         ->check(CLI::IsMember(number_format_names()))
         ->capture_default_str();
@@ -534,9 +561,17 @@ int main(int argc, char** argv) {
   numerics->add_option("--threads", numerics_options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
   numerics->add_option("--formats", numerics_options.formats, "Formats to compare (default: all built in)")
       ->check(CLI::IsMember(number_format_names()));
+  numerics->add_flag("--trust-model-paths", numerics_options.trust_model_paths, "Let model files name files outside their own folder");
 
   CLI::App* devices = app.add_subcommand("devices", "List the devices of every backend built in");
 
+  // CLI11 says only "A subcommand is required" of a mistyped command: name it, and the command meant.
+  std::vector<std::string> names;
+  for (const CLI::App* command : app.get_subcommands({})) names.push_back(command->get_name());
+  if (argc > 1 && argv[1][0] != '-' && std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+    fmt::print(stderr, "pathtracer: error: '{}' is not a command ({}){}\n", clip(argv[1]), fmt::join(names, ", "), closest_name_hint(argv[1], names));
+    return kErrorExitCode;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -147,7 +147,7 @@ int run_numerics(const NumericsOptions& options) {
   // The command line's mistakes first: they cost nothing to find.
   check_image_size(options.width, options.height, fmt::format("--width {} --height {}", options.width, options.height));
   check_output_folder(options.output_folder);
-  const SceneDescription scene = load_scene_file(options.scene);
+  const SceneDescription scene = load_scene_file(options.scene, model_references(options.trust_model_paths));
   RenderSettings settings = scene.render;
   settings.width = options.width;
   settings.height = options.height;

@@ -16,6 +16,7 @@ struct NumericsOptions {
   std::optional<u32> depth, seed;
   unsigned threads = 0;
   std::vector<std::string> formats;  // empty: every format built in
+  bool trust_model_paths = false;    // model files may name files outside their folder
 };
 
 // Writes numerics.csv, error-vs-bits.svg, one PNG per format and side-by-side.png to the output folder, prints

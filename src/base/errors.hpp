@@ -33,11 +33,29 @@ inline std::string escape_control_characters(std::string_view text) {
   return out;
 }
 
+// A value from an input quoted in a message (a name, a key, a file name): at most 60 characters of it, control
+// characters escaped. A 50 MB string in a scene must not become a 50 MB message.
+inline std::string clip(std::string_view text) {
+  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
+}
+
+// The longest message an InputError keeps: room for a place, a few clipped values and the explanation. Longer ones
+// (a value quoted whole by a library) are cut, what is cut said.
+inline constexpr std::size_t kMaxErrorMessage = 1000;
+
+inline std::string one_line_message(std::string_view message) {
+  if (message.size() <= kMaxErrorMessage) return escape_control_characters(message);
+  std::size_t keep = kMaxErrorMessage - 40;
+  while (keep > 0 && (static_cast<unsigned char>(message[keep]) & 0xc0) == 0x80) --keep;  // not inside a UTF-8 character
+  return escape_control_characters(message.substr(0, keep)) + "... (" + std::to_string(message.size() - keep) + " more characters)";
+}
+
 // Bad input: the message names the file and the place in it. Thrown only by host code, never in kernels. Its
-// message is always one line (escape_control_characters), whatever the input put into it.
+// message is always one line (escape_control_characters) of at most about kMaxErrorMessage characters, whatever the
+// input put into it.
 class InputError : public std::runtime_error {
  public:
-  explicit InputError(std::string_view message) : std::runtime_error(escape_control_characters(message)) {}
+  explicit InputError(std::string_view message) : std::runtime_error(one_line_message(message)) {}
   explicit InputError(const std::string& message) : InputError(std::string_view(message)) {}
   explicit InputError(const char* message) : InputError(std::string_view(message)) {}
 };

@@ -116,6 +116,7 @@ class Fit {
                            quantity_name(q), limit);
     else
       reason = fmt::format("{:g}{}{} is beyond {}'s range (|x| <= {:.3g})", written, what, after, type, limit);
+    if (pointer.empty()) throw InputError(fmt::format("{}: {}", scene_.source, reason));  // a model given as the scene
     throw InputError(fmt::format("{}: {}: {}", source_position(scene_, pointer), pointer, reason));
   }
 

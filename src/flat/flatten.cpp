@@ -525,7 +525,9 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   const Fit<T> fit(scene, scale);
   FlatScene<T> flat;
   flat.scale = scale;
-  flat.camera = fit_camera(fit, camera, settings.width, settings.height);
+  // A camera that frames a model given as the scene was not written: where it does not fit, the model's vertices
+  // are at fault, and they are named (below, with the meshes) before the camera is fitted.
+  if (!scene.camera_frames_model) flat.camera = fit_camera(fit, camera, settings.width, settings.height);
   flat.background = Background<T>{fit(scene.background.horizon, Quantity::kColour, scene.written.horizon),
                                   fit(scene.background.zenith, Quantity::kColour, scene.written.zenith),
                                   {}};
@@ -560,6 +562,15 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     flat.wide_nodes = build_wide_bvh<T, double>(bvh.nodes);
     make_perlin_tables(flat);
     flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
+    if (scene.camera_frames_model) {
+      try {
+        flat.camera = fit_camera(fit, camera, settings.width, settings.height);
+      } catch (const InputError&) {
+        throw InputError(fmt::format("{}: the camera placed to frame the model, {:g} from its centre, is beyond {}'s range although the "
+                                     "model is not (give it a camera of its own in a scene file)",
+                                     scene.source, length(camera.look_from - camera.look_at), number_format_name<T>()));
+      }
+    }
     flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();
   } catch (const DoesNotFit& e) {
     throw InputError(

@@ -19,6 +19,7 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
   MeshBuild out;
   out.object = use.object;
   out.name = mesh.name;
+  out.where = scene.model_as_scene ? "" : "/objects/" + std::to_string(use.object) + "/file";
   out.source = &mesh;
   out.placed = placed;
   out.identity = placed.is_identity();
@@ -136,7 +137,7 @@ void flatten_meshes(const Fit<T>& fit, std::vector<MeshBuild>& meshes, const std
     flat.mesh_nodes.reserve(nodes);
   }
   for (MeshBuild& m : meshes) {
-    const std::string where = "/objects/" + std::to_string(m.object) + "/file";
+    const std::string& where = m.where;
     const std::string vertex = fmt::format("a vertex of mesh '{}'", m.name);
     const double scale = m.scale;
     const u32 vertex_count = static_cast<u32>(m.source->positions.size());

@@ -31,6 +31,7 @@ struct MeshPlacementUse {
 struct MeshBuild {
   u32 object;        // the first object placing it, for messages
   std::string name;  // the file's name for it
+  std::string where;  // the JSON path of the object placing it, for messages (none for a model given as the scene)
   const TriangleMesh* source = nullptr;
   AffineTransform placed;  // mesh space to the space the mesh is stored in (the identity for a shared mesh)
   bool identity = true;    // placed is the identity

@@ -83,7 +83,8 @@ bool jpeg_huffman_tables_fit(std::span<const unsigned char> bytes) {
 
 // `subject` names the image in messages: "image file 'PATH'" or "image 'NAME'".
 void check_texture_size(const std::string& subject, u64 width, u64 height) {
-  if (width == 0 || height == 0 || width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxTextureTexels)
+  if (width == 0 || height == 0) throw InputError(fmt::format("{} is {}x{} texels: it has no texels", subject, width, height));
+  if (width > kMaxTextureSide || height > kMaxTextureSide || width * height > kMaxTextureTexels)
     throw InputError(
         fmt::format("{} is {}x{} texels, larger than a texture may be (at most {} per side and {} texels in all; "
                     "see docs/scene-format.md)",
@@ -161,8 +162,9 @@ class MemoryTextureSource final : public TextureSource {
   std::span<const unsigned char> bytes_;
 };
 
-TextureImage decode_texture(TextureSource& source, const std::string& subject) {
-  // The size is checked from the header, before anything is decoded: a small file can claim an image of gigabytes.
+// The size an image's header gives, checked against the limits before anything is decoded: a small file can claim
+// an image of gigabytes.
+TextureSize texture_size(TextureSource& source, const std::string& subject) {
   unsigned char header[24];
   const std::size_t header_size = source.header(header, sizeof header);
   u64 png_width = 0, png_height = 0;
@@ -175,6 +177,12 @@ TextureImage decode_texture(TextureSource& source, const std::string& subject) {
     throw InputError(fmt::format("cannot read {}: {}", subject, reason ? reason : "unknown format"));
   }
   check_texture_size(subject, static_cast<u64>(width), static_cast<u64>(height));
+  return TextureSize{static_cast<u32>(width), static_cast<u32>(height)};
+}
+
+TextureImage decode_texture(TextureSource& source, const std::string& subject) {
+  const TextureSize size = texture_size(source, subject);
+  int width = 0, height = 0, channels = 0;
   const std::span<const unsigned char> bytes = source.all();
   check_image_data(bytes, subject);
   // Decoded with the image's own channels and expanded to RGB here, as stb_image would (grey repeated, alpha
@@ -187,6 +195,8 @@ TextureImage decode_texture(TextureSource& source, const std::string& subject) {
   }
   const std::unique_ptr<unsigned char, void (*)(void*)> owned_pixels(pixels, &stbi_image_free);
   if (channels < 1 || channels > 4) throw InputError(fmt::format("cannot decode {}: {} channels", subject, channels));
+  if (static_cast<u32>(width) != size.width || static_cast<u32>(height) != size.height)
+    throw InputError(fmt::format("cannot decode {}: its header says {}x{} texels, its data {}x{}", subject, size.width, size.height, width, height));
   TextureImage image;
   image.width = static_cast<u32>(width);
   image.height = static_cast<u32>(height);
@@ -213,6 +223,17 @@ InputFile open_image_file(const std::filesystem::path& path) {
 }
 
 }  // namespace
+
+TextureSize read_texture_image_size(const std::filesystem::path& path) {
+  InputFile input = open_image_file(path);
+  const std::string subject = fmt::format("image file '{}'", path.string());
+  std::FILE* file = ::fdopen(input.descriptor(), "rb");
+  if (!file) throw InputError(fmt::format("cannot read {}: {}", subject, std::strerror(errno)));
+  const int fd = input.release();
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> owned(file, &std::fclose);
+  FileTextureSource source(fd, file);
+  return texture_size(source, subject);
+}
 
 TextureImage read_texture_image(const std::filesystem::path& path) {
   InputFile input = open_image_file(path);

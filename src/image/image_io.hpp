@@ -43,6 +43,15 @@ struct TextureImage {
 inline constexpr u64 kMaxTextureSide = 16384;
 inline constexpr u64 kMaxTextureTexels = u64{1} << 26;
 
+// An image's size in texels, as its header gives it.
+struct TextureSize {
+  u32 width = 0, height = 0;
+};
+
+// The size of the image read_texture_image would read, from the file's header alone (the data is neither read
+// nor decoded), checked against the limits below. Throws InputError as read_texture_image does.
+TextureSize read_texture_image_size(const std::filesystem::path& path);
+
 // Reads an 8-bit image (PNG, JPEG, BMP, TGA, ...) from a regular file, at most kMaxTextureSide on a side and
 // kMaxTextureTexels in all. Throws InputError.
 TextureImage read_texture_image(const std::filesystem::path& path);

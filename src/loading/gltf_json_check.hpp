@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "kernel/platform.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt::gltf {
 
@@ -32,6 +33,7 @@ struct JsonCheckInput {
   std::string folder_prefix;            // the folder of the file, ending in '/': external files are relative to it
   bool binary = false;                  // a .glb
   std::optional<u64> bin_chunk_length;  // a .glb's BIN chunk, if it has one
+  ModelReferences references = ModelReferences::kInsideItsFolder;  // which external files may be named
 };
 
 // What the reader needs from the JSON besides the checks.

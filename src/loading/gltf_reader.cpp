@@ -29,6 +29,7 @@
 #include "base/errors.hpp"
 #include "base/input_file.hpp"
 #include "loading/gltf_json_check.hpp"
+#include "loading/json_outline.hpp"
 #include "loading/model_files.hpp"
 
 namespace pt {
@@ -271,9 +272,7 @@ class Converter {
       warn("modes", fmt::format("points and lines are not rendered: {} primitives of mode {}", undrawn_, modes));
     }
     if (singular_placements_ > 0)
-      warn("singular", fmt::format("{} placements of meshes by nodes whose transform is singular (a scale of 0) or too large to be finite are "
-                                   "not drawn",
-                                   singular_placements_));
+      warn("singular", fmt::format("{} placements of meshes by nodes whose transform is singular (a scale of 0) are not drawn", singular_placements_));
   }
 
  private:
@@ -287,12 +286,12 @@ class Converter {
   }
 
   // A transform that places a mesh: finite and invertible.
-  static bool usable(const AffineTransform& t) {
+  // Whether a transform's entries and its determinant (the factor by which it scales volumes) are finite.
+  static bool finite_transform(const AffineTransform& t) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
         if (!std::isfinite(t.linear[i][j])) return false;
-    const double determinant = t.determinant();
-    return is_finite(t.translation) && determinant != 0 && std::isfinite(determinant);
+    return is_finite(t.translation) && std::isfinite(t.determinant());
   }
 
   // A node's own transform: its matrix, or T * R * S.
@@ -338,7 +337,11 @@ class Converter {
       const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(index)];
       const AffineTransform world = local_transform(node).then(parent);
       if (node.mesh >= 0) {
-        if (!usable(world)) {
+        // A transform too large to be finite is a fault of the file; a singular one (a scale of 0) hides a mesh, as
+        // animations do, and is skipped with a warning.
+        if (!finite_transform(world))
+          fail(fmt::format("/nodes/{}", index), "its transform, with its parents', is too large to be finite (it scales volumes by more than 1.8e308)");
+        if (world.determinant() == 0) {
           ++singular_placements_;
         } else {
           placed_.emplace_back(node.mesh, world);
@@ -814,7 +817,7 @@ class Converter {
 
 }  // namespace
 
-MeshFile read_gltf_file(const std::filesystem::path& path) {
+MeshFile read_gltf_file(const std::filesystem::path& path, ModelReferences references) {
   const std::string name = path.string();
   std::string bytes;
   InputFile input = InputFile::open(path);
@@ -845,12 +848,16 @@ MeshFile read_gltf_file(const std::filesystem::path& path) {
     nlohmann::json root;
     try {
       root = nlohmann::json::parse(text, text + parts.json_length);
+    } catch (const nlohmann::json::out_of_range&) {
+      // A number beyond a double's range ("1e999"): the outline pass names its line, column and JSON path.
+      read_json_outline(std::string_view(text, parts.json_length), name);
+      throw InputError(fmt::format("{}: not valid JSON: a number is beyond the range of a double", name));
     } catch (const nlohmann::json::exception& e) {
       std::string what = e.what();
       if (what.compare(0, 1, "[") == 0 && what.find("] ") != std::string::npos) what = what.substr(what.find("] ") + 2);
       throw InputError(fmt::format("{}: not valid JSON: {}", name, what));
     }
-    facts = gltf::check_gltf_json(root, gltf::JsonCheckInput{name, folder_prefix, binary, parts.bin_length});
+    facts = gltf::check_gltf_json(root, gltf::JsonCheckInput{name, folder_prefix, binary, parts.bin_length, references});
   }
 
   FileAccess access;

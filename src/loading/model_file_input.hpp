@@ -7,11 +7,13 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 #include <fmt/format.h>
 
 #include "base/errors.hpp"
 #include "base/input_file.hpp"
+#include "loading/model_files.hpp"
 
 namespace pt {
 
@@ -31,10 +33,19 @@ inline std::string read_model_input(const std::filesystem::path& path, std::stri
   return content;
 }
 
-// Names from a model file in messages: at most 60 characters of them, control characters escaped (warnings are
-// printed as they are; InputError escapes its message itself).
-inline std::string clip(std::string_view text) {
-  return escape_control_characters(text.size() <= 60 ? text : text.substr(0, 57)) + (text.size() <= 60 ? "" : "...");
+// Empty when `path` (a file that the model file in `model_folder` names) may be read; otherwise why not, a phrase
+// that follows the name in a message. Symbolic links are resolved on both sides, so that a link in the folder
+// cannot lead out of it.
+inline std::string outside_model_folder(const std::filesystem::path& model_folder, const std::filesystem::path& path, ModelReferences references) {
+  if (references == ModelReferences::kAnywhere) return "";
+  std::error_code error;
+  const std::filesystem::path folder = std::filesystem::weakly_canonical(model_folder.empty() ? "." : model_folder, error);
+  const std::filesystem::path file = error ? std::filesystem::path() : std::filesystem::weakly_canonical(path, error);
+  if (!error) {
+    const std::filesystem::path relative = file.lexically_relative(folder);
+    if (!relative.empty() && *relative.begin() != ".." && relative != ".") return "";
+  }
+  return "lies outside the model's folder (--trust-model-paths lets a model read it)";
 }
 
 }  // namespace pt

@@ -163,7 +163,8 @@ struct MaterialSource {
 // cannot be read is an error, not a warning: a model that silently loses its materials renders wrong.
 class MaterialLibraries : public tinyobj::MaterialReader {
  public:
-  MaterialLibraries(const std::filesystem::path& obj_path, const std::string& obj_text) : obj_path_(obj_path), obj_text_(obj_text) {}
+  MaterialLibraries(const std::filesystem::path& obj_path, const std::string& obj_text, ModelReferences references)
+      : obj_path_(obj_path), obj_text_(obj_text), references_(references) {}
 
   // Called for each name of an `mtllib` statement. tinyobjloader stops at the first library that loads; returning
   // false after loading one makes it read the others of the statement too (its "failed to load" warning is dropped).
@@ -176,6 +177,8 @@ class MaterialLibraries : public tinyobj::MaterialReader {
       std::replace(forward.begin(), forward.end(), '\\', '/');
       path = obj_path_.parent_path() / forward;
     }
+    if (const std::string outside = outside_model_folder(obj_path_.parent_path(), path, references_); !outside.empty())
+      throw InputError(fmt::format("{}: line {}: material library '{}' {}", obj_path_.string(), mtllib_line(name), path.string(), outside));
     const std::string key = path.lexically_normal().string();
     if (!loaded_.insert(key).second) return false;
     std::string text;
@@ -261,6 +264,7 @@ class MaterialLibraries : public tinyobj::MaterialReader {
 
   std::filesystem::path obj_path_;
   const std::string& obj_text_;
+  ModelReferences references_;
   std::set<std::string> loaded_;
   std::vector<MaterialSource> sources_;  // one per material, in tinyobjloader's order
 };
@@ -411,7 +415,7 @@ class ObjReader {
 
   Parsed parse(bool triangulate) const {
     Parsed parsed;
-    MaterialLibraries libraries(path_, text_);
+    MaterialLibraries libraries(path_, text_, references_);
     std::string errors;
     MemoryBuffer buffer(text_);
     std::istream stream(&buffer);
@@ -851,6 +855,8 @@ class ObjReader {
     if (options.origin_offset[0] != 0 || options.origin_offset[1] != 0 || options.origin_offset[2] != 0 || options.scale[0] != 1 ||
         options.scale[1] != 1 || options.scale[2] != 1 || options.turbulence[0] != 0 || options.turbulence[1] != 0 || options.turbulence[2] != 0)
       unrendered["texture options -o, -s and -t are not applied"].push_back(material);
+    if (const std::string outside = outside_model_folder(path_.parent_path(), path, references_); !outside.empty())
+      fail(fmt::format("{}: {}: '{}' {}", where, statement, path.string(), outside));
     const std::string key = path.lexically_normal().string();
     if (const auto found = textures_.find(key); found != textures_.end()) return found->second;
     try {
@@ -866,6 +872,7 @@ class ObjReader {
   std::filesystem::path path_;
   std::string file_;
   std::string text_;
+  ModelReferences references_;
   MeshFile out_;
   std::vector<std::string> warnings_;
   std::vector<std::vector<int>> material_ids_;  // per mesh, per triangle: tinyobjloader's material, or -1
@@ -875,6 +882,8 @@ class ObjReader {
 
 }  // namespace
 
-MeshFile read_obj_file(const std::filesystem::path& path) { return ObjReader(path, read_model_input(path, path.string(), "OBJ file")).read(); }
+MeshFile read_obj_file(const std::filesystem::path& path, ModelReferences references) {
+  return ObjReader(path, read_model_input(path, path.string(), "OBJ file"), references).read();
+}
 
 }  // namespace pt

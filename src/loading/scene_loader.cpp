@@ -76,14 +76,17 @@ class Node {
   Node(const Json& value, std::string pointer, const Document& document, ParsedFrom from)
       : value_(value), pointer_(std::move(pointer)), document_(document), from_(from) {}
 
-  [[noreturn]] void fail(const std::string& message) const {
+  [[noreturn]] void fail(const std::string& message) const { throw InputError(fmt::format("{}: {}", place(), message)); }
+
+  // "FILE:LINE:COLUMN: POINTER", the start of a message about this value.
+  std::string place() const {
     const std::optional<std::size_t> offset = text_offset();
-    std::string place = document_.source;
+    std::string file = document_.source;
     if (offset) {
       const TextPosition at = JsonPositions::position_of_offset(document_.text, *offset);
-      place = fmt::format("{}:{}:{}", document_.source, at.line, at.column);
+      file = fmt::format("{}:{}:{}", document_.source, at.line, at.column);
     }
-    throw InputError(fmt::format("{}: {}: {}", place, pointer_.empty() ? "(top level)" : pointer_, message));
+    return fmt::format("{}: {}", file, pointer_.empty() ? "(top level)" : pointer_);
   }
 
   // Where the value starts in the file's text.
@@ -123,7 +126,7 @@ class Node {
           best = a;
         }
       }
-      child(key).fail(best.empty() ? fmt::format("unknown key '{}'", key) : fmt::format("unknown key '{}' (did you mean '{}'?)", key, best));
+      child(key).fail(best.empty() ? fmt::format("unknown key '{}'", clip(key)) : fmt::format("unknown key '{}' (did you mean '{}'?)", clip(key), best));
     }
   }
 
@@ -216,8 +219,8 @@ class Node {
 // Builds the description while keeping name tables for textures and materials.
 class SceneReader {
  public:
-  SceneReader(const Document& document, std::filesystem::path base_folder, SceneDescription& scene)
-      : document_(document), base_folder_(std::move(base_folder)), scene_(scene) {}
+  SceneReader(const Document& document, std::filesystem::path base_folder, ModelReferences references, SceneDescription& scene)
+      : document_(document), base_folder_(std::move(base_folder)), references_(references), scene_(scene) {}
 
   // `root` is the outline's document, whose lists are empty; their entries are parsed from the text one by one.
   void read(const Node& root, const JsonOutline& outline) {
@@ -244,6 +247,7 @@ class SceneReader {
     scene_.objects.reserve(list.size());
     for (std::size_t i = 0; i < list.size(); ++i)
       with_entry(objects.pointer() + "/" + std::to_string(i), list[i], [&](const Node& n) { read_object(n); });
+    decode_images();
   }
 
  private:
@@ -268,13 +272,13 @@ class SceneReader {
     if (n.has("light_sampling")) {
       const Node choice = n.child("light_sampling");
       const std::string value = choice.string();
-      if (value != "nee" && value != "none") choice.fail(fmt::format("'{}' is not a light sampling: nee or none", value));
+      if (value != "nee" && value != "none") choice.fail(fmt::format("'{}' is not a light sampling: nee or none", clip(value)));
       r.light_sampling = value == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
     }
     if (n.has("sampler")) {
       const Node choice = n.child("sampler");
       const std::string value = choice.string();
-      if (value != "sobol" && value != "independent") choice.fail(fmt::format("'{}' is not a sampler: sobol or independent", value));
+      if (value != "sobol" && value != "independent") choice.fail(fmt::format("'{}' is not a sampler: sobol or independent", clip(value)));
       r.sampler = value == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
     }
     // t_min once kept rays from hitting the surface they leave; its fixed distance was wrong at most scales. Rays
@@ -343,7 +347,7 @@ class SceneReader {
       scene_.environment = std::move(environment);
       scene_.written.environment = file.pointer();
     } else {
-      n.child("type").fail(fmt::format("unknown background type '{}' (expected 'sky', 'constant' or 'environment')", type));
+      n.child("type").fail(fmt::format("unknown background type '{}' (expected 'sky', 'constant' or 'environment')", clip(type)));
     }
   }
 
@@ -379,7 +383,7 @@ class SceneReader {
       if (name.empty()) file.fail("the image file name is empty");
       const double repeat = n.has("repeat") ? n.child("repeat").positive() : 1.0;
       const ImageRef image = load_image(file, name);
-      return add_texture(ImageTexture<double>{image.width, image.height, image.offset, repeat, {1, 1, 1}}, n.pointer());
+      return add_image_texture(image, repeat, 0, n.pointer());
     }
     if (type == "noise") {
       n.allow_keys({"type", "kind", "scale", "turbulence_depth"});
@@ -393,36 +397,78 @@ class SceneReader {
         else if (k == "marble")
           kind = NoiseKind::kMarble;
         else
-          n.child("kind").fail(fmt::format("unknown noise kind '{}' (expected 'perlin', 'turbulence' or 'marble')", k));
+          n.child("kind").fail(fmt::format("unknown noise kind '{}' (expected 'perlin', 'turbulence' or 'marble')", clip(k)));
       }
       const double scale = n.has("scale") ? n.child("scale").positive() : 1.0;
       const u32 depth = n.has("turbulence_depth") ? n.child("turbulence_depth").integer(1, 16) : 7;
       return add_texture(NoiseTexture<double>{scale, kind, depth, 1}, n.pointer());
     }
-    n.child("type").fail(fmt::format("unknown texture type '{}' (expected solid, checker, uv_checker, image or noise)", type));
+    n.child("type").fail(fmt::format("unknown texture type '{}' (expected solid, checker, uv_checker, image or noise)", clip(type)));
   }
 
   struct ImageRef {
-    u32 width, height, offset;
+    u32 width, height;
+    std::size_t image;  // in pending_images_
   };
 
+  // An image being decoded later (decode_images): its file, the place that named it, where its texels go among
+  // the scene file's images, and their size.
+  struct PendingImage {
+    std::filesystem::path path;
+    std::string place;
+    u64 byte_offset, bytes;
+  };
+
+  // A texture of an image whose texels are placed once decoded: `linear` for data (normal maps) rather than colour.
+  u32 add_image_texture(const ImageRef& image, double repeat, u32 linear, const std::string& pointer) {
+    const u32 texture = add_texture(ImageTexture<double>{image.width, image.height, 0, repeat, {1, 1, 1}, linear}, pointer);
+    image_textures_.emplace_back(texture, image.image);
+    return texture;
+  }
+
+  // An image's place among the scene's texels, from its header: images are decoded only once the whole scene is
+  // read (decode_images), so that images too large together are refused before any is decoded.
   ImageRef load_image(const Node& where, const std::string& name) {
     const std::filesystem::path path = base_folder_ / name;
     const std::string key = path.lexically_normal().string();
     if (const auto it = images_.find(key); it != images_.end()) return it->second;
-    TextureImage image;
+    TextureSize size;
     try {
-      image = read_texture_image(path);
+      size = read_texture_image_size(path);
     } catch (const InputError& e) {
       where.fail(e.what());
     }
-    if (scene_.texels.size() + image.srgb.size() > kMaxSceneTexelBytes)
-      where.fail(
-          fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)", kMaxSceneTexelBytes >> 20));
-    const ImageRef ref{image.width, image.height, static_cast<u32>(scene_.texels.size() / 3)};
-    scene_.texels.insert(scene_.texels.end(), image.srgb.begin(), image.srgb.end());
+    const u64 bytes = u64{3} * size.width * size.height;
+    if (scene_.texels.size() + pending_texel_bytes_ + bytes > kMaxSceneTexelBytes)
+      where.fail(fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)",
+                             kMaxSceneTexelBytes >> 20));
+    pending_images_.push_back(PendingImage{path, where.place(), pending_texel_bytes_, bytes});
+    const ImageRef ref{size.width, size.height, pending_images_.size() - 1};
+    pending_texel_bytes_ += bytes;
     images_.emplace(key, ref);
     return ref;
+  }
+
+  // Decodes the images the scene file names into the scene's texels, after those of its model files, and sets the
+  // texel offsets of the textures that use them.
+  void decode_images() {
+    const u64 base = scene_.texels.size();
+    scene_.texels.reserve(base + pending_texel_bytes_);
+    for (const PendingImage& pending : pending_images_) {
+      TextureImage image;
+      try {
+        image = read_texture_image(pending.path);
+      } catch (const InputError& e) {
+        throw InputError(fmt::format("{}: {}", pending.place, e.what()));
+      }
+      if (image.srgb.size() != pending.bytes)  // the file changed since its header was read
+        throw InputError(fmt::format("{}: image file '{}' changed while the scene was read", pending.place, pending.path.string()));
+      scene_.texels.insert(scene_.texels.end(), image.srgb.begin(), image.srgb.end());  // at base + pending.byte_offset
+    }
+    for (const auto& [texture, image] : image_textures_) {
+      ImageTexture<double>& t = std::get<ImageTexture<double>>(scene_.textures[texture]);
+      t.offset = static_cast<u32>((base + pending_images_[image].byte_offset) / 3);
+    }
   }
 
   // A texture given by name, inline object, or (with `color_key`) a plain colour.
@@ -430,7 +476,7 @@ class SceneReader {
     if (n.json().is_string()) {
       const std::string name = n.string();
       const auto it = texture_names_.find(name);
-      if (it == texture_names_.end()) n.fail(fmt::format("unknown texture '{}'", name));
+      if (it == texture_names_.end()) n.fail(fmt::format("unknown texture '{}'", clip(name)));
       return it->second;
     }
     if (n.json().is_object()) return read_texture(n);
@@ -501,21 +547,21 @@ class SceneReader {
         const std::string name = map.string();
         if (name.empty()) map.fail("the normal map's file name is empty");
         const ImageRef image = load_image(map, name);
-        normal_map = add_texture(ImageTexture<double>{image.width, image.height, image.offset, 1.0, {1, 1, 1}, 1}, map.pointer());
+        normal_map = add_image_texture(image, 1.0, 1, map.pointer());
       }
       if (n.has("normal_scale") && !n.has("normal_map")) n.child("normal_scale").fail("'normal_scale' needs a 'normal_map'");
       const double normal_scale = n.has("normal_scale") ? n.child("normal_scale").number_in(-100, 100) : 1.0;
       return add_material(MetallicRoughness<double>{base, factors, normal_map, normal_scale}, n.pointer());
     }
     n.child("type").fail(
-        fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light, isotropic or metallic_roughness)", type));
+        fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light, isotropic or metallic_roughness)", clip(type)));
   }
 
   u32 read_material_reference(const Node& n) {
     if (n.json().is_string()) {
       const std::string name = n.string();
       const auto it = material_names_.find(name);
-      if (it == material_names_.end()) n.fail(fmt::format("unknown material '{}'", name));
+      if (it == material_names_.end()) n.fail(fmt::format("unknown material '{}'", clip(name)));
       return it->second;
     }
     if (n.json().is_object()) return read_material(n);
@@ -563,7 +609,10 @@ class SceneReader {
     const std::string key = path.lexically_normal().string();
     if (const auto it = mesh_files_.find(key); it != mesh_files_.end()) return it->second;
     try {
-      const u32 index = add_mesh_file(scene_, std::make_shared<const MeshFile>(read_mesh_file(path)), n.pointer());
+      const u32 index = add_mesh_file(scene_, std::make_shared<const MeshFile>(read_mesh_file(path, references_)), n.pointer());
+      if (scene_.texels.size() + pending_texel_bytes_ > kMaxSceneTexelBytes)  // with the scene file's images, not yet decoded
+        n.fail(fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)",
+                           kMaxSceneTexelBytes >> 20));
       mesh_files_.emplace(key, index);
       return index;
     } catch (const InputError& e) {
@@ -649,11 +698,11 @@ class SceneReader {
         boundary.allow_keys({"type", "min", "max", "transform"});
         medium.boundary = read_box(boundary);
       } else {
-        boundary.child("type").fail(fmt::format("a medium boundary must be a sphere or a box, not '{}'", boundary_type));
+        boundary.child("type").fail(fmt::format("a medium boundary must be a sphere or a box, not '{}'", clip(boundary_type)));
       }
       object.shape = medium;
     } else {
-      n.child("type").fail(fmt::format("unknown object type '{}' (expected sphere, moving_sphere, triangle, quad, box, medium or mesh)", type));
+      n.child("type").fail(fmt::format("unknown object type '{}' (expected sphere, moving_sphere, triangle, quad, box, medium or mesh)", clip(type)));
     }
     const Node material = n.at("material");
     object.material = read_material_reference(material);
@@ -665,9 +714,13 @@ class SceneReader {
 
   const Document& document_;
   std::filesystem::path base_folder_;
+  ModelReferences references_;
   SceneDescription& scene_;
   std::map<std::string, u32> texture_names_, material_names_;
   std::map<std::string, ImageRef> images_;
+  std::vector<PendingImage> pending_images_;
+  u64 pending_texel_bytes_ = 0;
+  std::vector<std::pair<u32, std::size_t>> image_textures_;  // texture, image in pending_images_
   std::map<std::string, u32> mesh_files_;
 };
 
@@ -734,21 +787,22 @@ u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file,
 
 namespace {
 
-SceneDescription parse_scene_text(std::shared_ptr<const std::string> text, const std::string& source, const std::filesystem::path& base_folder) {
+SceneDescription parse_scene_text(std::shared_ptr<const std::string> text, const std::string& source, const std::filesystem::path& base_folder,
+                                  ModelReferences references) {
   const JsonOutline outline = read_json_outline(*text, source);
   const Document document{source, *text};
   SceneDescription scene;
   scene.source = source;
   scene.written.text = text;
-  SceneReader reader(document, base_folder, scene);
+  SceneReader reader(document, base_folder, references, scene);
   reader.read(Node(outline.root, "", document, ParsedFrom{TextRange{0, text->size()}, 0}), outline);
   return scene;
 }
 
 }  // namespace
 
-SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
-  return parse_scene_text(std::make_shared<const std::string>(text), source, base_folder);
+SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder, ModelReferences references) {
+  return parse_scene_text(std::make_shared<const std::string>(text), source, base_folder, references);
 }
 
 namespace {
@@ -774,20 +828,25 @@ CameraSettings framing_camera(const Vec3d& lo, const Vec3d& hi) {
 
 }  // namespace
 
-SceneDescription scene_from_model_file(const std::filesystem::path& file) {
+SceneDescription scene_from_model_file(const std::filesystem::path& file, ModelReferences references) {
   SceneDescription scene;
   scene.source = file.string();
-  auto model = std::make_shared<const MeshFile>(read_mesh_file(file));
+  auto model = std::make_shared<const MeshFile>(read_mesh_file(file, references));
   Vec3d lo = Vec3d::splat(std::numeric_limits<double>::infinity()), hi = -lo;
   for (const MeshPlacement& placement : model->placements)
     for (const std::array<u32, 3>& triangle : model->meshes[placement.mesh].triangles)
       for (const u32 v : triangle) {
         const Vec3d p = placement.transform.apply_point(model->meshes[placement.mesh].positions[v]);
+        if (!is_finite(p))
+          throw InputError(fmt::format("{}: vertex {} of mesh '{}' is placed beyond a double's range (about 1.8e308)", file.string(), v,
+                                       clip(model->meshes[placement.mesh].name)));
         lo = vmin(lo, p);
         hi = vmax(hi, p);
       }
   if (!(lo.x <= hi.x)) throw InputError(fmt::format("{}: the model has no triangles to render", file.string()));
   scene.camera = model->camera ? *model->camera : framing_camera(lo, hi);
+  scene.model_as_scene = true;
+  scene.camera_frames_model = !model->camera;
   SceneObject object;
   object.shape = MeshSettings{add_mesh_file(scene, model, "(model)"), AffineTransform{}};
   object.material = kMeshMaterials;
@@ -795,8 +854,8 @@ SceneDescription scene_from_model_file(const std::filesystem::path& file) {
   return scene;
 }
 
-SceneDescription load_scene_file(const std::filesystem::path& file) {
-  if (is_model_file(file)) return scene_from_model_file(file);
+SceneDescription load_scene_file(const std::filesystem::path& file, ModelReferences references) {
+  if (is_model_file(file)) return scene_from_model_file(file, references);
   InputFile input = InputFile::open(file);
   switch (input.problem()) {
     case InputFile::Problem::kNone: break;
@@ -807,7 +866,7 @@ SceneDescription load_scene_file(const std::filesystem::path& file) {
   }
   std::string text;
   if (!input.read_all(text)) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
-  return parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path());
+  return parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path(), references);
 }
 
 }  // namespace pt

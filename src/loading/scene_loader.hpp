@@ -6,20 +6,23 @@
 #include <string>
 #include <string_view>
 
+#include "loading/model_files.hpp"
 #include "scene/scene.hpp"
 
 namespace pt {
 
 // Reads and checks a scene file; image paths are relative to the file's folder. A model file (.obj, .ply, .gltf,
-// .glb) is a scene of its own (scene_from_model_file). Throws InputError.
-SceneDescription load_scene_file(const std::filesystem::path& file);
+// .glb) is a scene of its own (scene_from_model_file). `references` says which files model files may name. Throws
+// InputError.
+SceneDescription load_scene_file(const std::filesystem::path& file, ModelReferences references = ModelReferences::kInsideItsFolder);
 
 // A scene of one model file: its meshes and materials, its camera where it has one (glTF) or else one that frames
 // it from the front, and the default sky. Throws InputError.
-SceneDescription scene_from_model_file(const std::filesystem::path& file);
+SceneDescription scene_from_model_file(const std::filesystem::path& file, ModelReferences references = ModelReferences::kInsideItsFolder);
 
 // Parses scene text; `source` names it in messages and `base_folder` resolves image paths. Throws InputError.
-SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);
+SceneDescription parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder,
+                             ModelReferences references = ModelReferences::kInsideItsFolder);
 
 // Adds a model file to the scene: its materials and textures (as the scene's own, MeshMaterial mapped onto them)
 // and the file to SceneDescription::mesh_files, whose index it returns; its warnings to the scene's. `pointer`
