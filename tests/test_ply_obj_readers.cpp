@@ -19,6 +19,7 @@
 #include <fmt/format.h>
 
 #include "loading/model_files.hpp"
+#include "loading/polygon_cutting.hpp"
 #include "test_support.hpp"
 
 namespace pt {
@@ -528,6 +529,62 @@ TEST(ObjReader, ConcavePolygonIsCutIntoEars) {
   // The polygon's area by the shoelace formula over its corners (computed in Python): the triangles cover it
   // exactly only if none lies outside it or over another, which a fan of this concave polygon would not.
   EXPECT_NEAR(area_in_yz(file.meshes[0]), 0.2454966872, 1e-9);
+}
+
+// A polygon in the xy plane and its area by the shoelace formula (positive counter-clockwise).
+double shoelace_area(const std::vector<Vec3d>& corners) {
+  double twice = 0;
+  for (std::size_t i = 0; i < corners.size(); ++i) {
+    const Vec3d& a = corners[i];
+    const Vec3d& b = corners[(i + 1) % corners.size()];
+    twice += a.x * b.y - b.x * a.y;
+  }
+  return twice / 2;
+}
+
+TEST(PolygonCutting, LargePolygonsAreCutExactlyWithWorkLinearInTheirCorners) {
+  constexpr u32 kCorners = 100000;
+  const double pi = std::acos(-1.0);
+  std::map<std::string, std::vector<Vec3d>> polygons;
+  for (u32 i = 0; i < kCorners; ++i) {
+    const double angle = 2 * pi * i / kCorners;
+    polygons["circle"].push_back({std::cos(angle), std::sin(angle), 0});
+    const double radius = i % 2 == 0 ? 1.0 : 0.5;  // every other corner reflex
+    polygons["star"].push_back({radius * std::cos(angle), radius * std::sin(angle), 0});
+  }
+  // A comb: a base of height 1 and kCorners / 4 teeth of height 9, counter-clockwise from the base's left end.
+  std::vector<Vec3d>& comb = polygons["comb"];
+  const int teeth = kCorners / 4;
+  comb.push_back({0, 0, 0});
+  comb.push_back({2.0 * teeth - 1, 0, 0});
+  for (int i = teeth - 1; i >= 0; --i) {
+    comb.push_back({2.0 * i + 1, 10, 0});
+    comb.push_back({2.0 * i, 10, 0});
+    if (i > 0) {
+      comb.push_back({2.0 * i, 1, 0});
+      comb.push_back({2.0 * i - 1, 1, 0});
+    }
+  }
+  for (const auto& [name, corners] : polygons) {
+    SCOPED_TRACE(name);
+    std::vector<std::array<u32, 3>> triangles;
+    const PolygonCut cut = cut_polygon(corners, triangles);
+    EXPECT_TRUE(cut.ears_found);
+    ASSERT_EQ(triangles.size(), corners.size() - 2);
+    // Every triangle keeps the polygon's winding and together they cover its area: none lies outside it or over another.
+    double area = 0;
+    for (const auto& t : triangles) {
+      const double a = shoelace_area({corners[t[0]], corners[t[1]], corners[t[2]]});
+      EXPECT_GE(a, 0);
+      area += a;
+    }
+    EXPECT_NEAR(area, shoelace_area(corners), 1e-9 * std::abs(shoelace_area(corners)));
+    // Walking round the polygon and testing every remaining corner against every candidate ear did about
+    // corners^2 / 2 tests (5e9 here, half a minute); the queue of candidates and the reflex corners' grid keep the
+    // work to a bounded number of steps per corner.
+    EXPECT_LE(cut.ears_tried, 3 * corners.size());
+    EXPECT_LE(cut.corner_tests, 100 * corners.size());
+  }
 }
 
 // A model given as the scene has a camera placed to frame it: where a vertex does not fit the kernels' type, the

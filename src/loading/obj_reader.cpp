@@ -23,6 +23,7 @@
 #include "base/errors.hpp"
 #include "loading/model_file_input.hpp"
 #include "loading/model_files.hpp"
+#include "loading/polygon_cutting.hpp"
 
 namespace pt {
 
@@ -292,91 +293,10 @@ long long leading_integer(std::string_view text) {
   return std::strtoll(digits.c_str(), nullptr, 10);
 }
 
-// Cuts a polygon (its corners' positions, in order) into triangles of corner numbers that keep its winding. A convex
-// quadrilateral is cut along its shorter diagonal; anything else by ear clipping, in the coordinate plane the
-// polygon is seen flattest from, so that concave polygons (and polygons joined to a hole by an edge walked twice)
-// are covered exactly. Returns false for a polygon without an ear (self-intersecting), which is cut as a fan.
-bool cut_polygon(const std::vector<Vec3d>& p, std::vector<std::array<u32, 3>>& out) {
-  const u32 n = static_cast<u32>(p.size());
-  const auto fan = [&](u32 first, const std::vector<u32>& next, u32 remaining) {
-    for (u32 k = 0, b = next[first]; k + 2 < remaining; ++k, b = next[b]) out.push_back({first, b, next[b]});
-  };
-  std::vector<u32> next(n), prev(n);
-  for (u32 i = 0; i < n; ++i) {
-    next[i] = (i + 1) % n;
-    prev[i] = (i + n - 1) % n;
-  }
-  if (n == 3) {
-    out.push_back({0, 1, 2});
-    return true;
-  }
-  // Newell's normal: its largest component names the axis to look along.
-  Vec3d normal{0, 0, 0};
-  for (u32 i = 0; i < n; ++i) {
-    const Vec3d& a = p[i];
-    const Vec3d& b = p[next[i]];
-    normal.x += (a.y - b.y) * (a.z + b.z);
-    normal.y += (a.z - b.z) * (a.x + b.x);
-    normal.z += (a.x - b.x) * (a.y + b.y);
-  }
-  const double along[3] = {std::fabs(normal.x), std::fabs(normal.y), std::fabs(normal.z)};
-  const int axis = along[0] >= along[1] && along[0] >= along[2] ? 0 : (along[1] >= along[2] ? 1 : 2);
-  const double facing = axis == 0 ? normal.x : axis == 1 ? normal.y : normal.z;
-  if (!(std::fabs(facing) > 0) || !std::isfinite(facing)) {  // no area: any cut is as good
-    fan(0, next, n);
-    return true;
-  }
-  // The other two axes in cyclic order, so that the polygon turns counter-clockwise in them when `facing` > 0.
-  std::vector<std::array<double, 2>> q(n);
-  for (u32 i = 0; i < n; ++i) {
-    const double c[3] = {p[i].x, p[i].y, p[i].z};
-    q[i] = {c[(axis + 1) % 3], c[(axis + 2) % 3]};
-  }
-  const double sign = facing > 0 ? 1.0 : -1.0;
-  // > 0 where a, b, c turn the polygon's way (b is a convex corner of a, b, c).
-  const auto turn = [&](u32 a, u32 b, u32 c) {
-    return sign * ((q[b][0] - q[a][0]) * (q[c][1] - q[a][1]) - (q[b][1] - q[a][1]) * (q[c][0] - q[a][0]));
-  };
-  if (n == 4 && turn(3, 0, 1) > 0 && turn(0, 1, 2) > 0 && turn(1, 2, 3) > 0 && turn(2, 3, 0) > 0) {
-    if (length_squared(p[2] - p[0]) < length_squared(p[3] - p[1]))
-      out.insert(out.end(), {{0, 1, 2}, {0, 2, 3}});
-    else
-      out.insert(out.end(), {{0, 1, 3}, {1, 2, 3}});
-    return true;
-  }
-  const auto same = [&](u32 a, u32 b) { return q[a][0] == q[b][0] && q[a][1] == q[b][1]; };
-  const auto is_ear = [&](u32 a, u32 b, u32 c) {
-    if (turn(a, b, c) <= 0) return false;
-    for (u32 k = next[c]; k != a; k = next[k]) {
-      if (same(k, a) || same(k, b) || same(k, c)) continue;  // a corner met twice (an edge to a hole and back)
-      if (turn(a, b, k) >= 0 && turn(b, c, k) >= 0 && turn(c, a, k) >= 0) return false;
-    }
-    return true;
-  };
-  u32 remaining = n, at = 0, tries = 0;
-  while (remaining > 3) {
-    const u32 a = prev[at], c = next[at];
-    if (is_ear(a, at, c)) {
-      out.push_back({a, at, c});
-      next[a] = c;
-      prev[c] = a;
-      --remaining;
-      at = c;
-      tries = 0;
-    } else if (++tries > remaining) {
-      fan(at, next, remaining);
-      return false;
-    } else {
-      at = c;
-    }
-  }
-  out.push_back({prev[at], at, next[at]});
-  return true;
-}
-
 class ObjReader {
  public:
-  ObjReader(const std::filesystem::path& path, std::string text) : path_(path), file_(path.string()), text_(std::move(text)) {}
+  ObjReader(const std::filesystem::path& path, std::string text, ModelReferences references)
+      : path_(path), file_(path.string()), text_(std::move(text)), references_(references) {}
 
   MeshFile read() {
     prepare_text(text_);
@@ -614,7 +534,7 @@ class ObjReader {
         polygon.clear();
         for (std::size_t k = 0; k < count; ++k) polygon.push_back(mesh.positions[vertex[first + k]]);
         cut.clear();
-        if (!cut_polygon(polygon, cut)) ++fanned;
+        if (!cut_polygon(polygon, cut).ears_found) ++fanned;
         for (const auto& triangle : cut) {
           mesh.triangles.push_back({vertex[first + triangle[0]], vertex[first + triangle[1]], vertex[first + triangle[2]]});
           material_ids.push_back(face < shape.mesh.material_ids.size() ? shape.mesh.material_ids[face] : -1);
