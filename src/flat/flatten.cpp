@@ -20,6 +20,7 @@
 #include "base/number_formats.hpp"
 #include "base/scalar_types.hpp"
 #include "flat/bvh_builder.hpp"
+#include "flat/duplicates.hpp"
 #include "flat/environment.hpp"
 #include "flat/fit.hpp"
 #include "flat/mesh_tables.hpp"
@@ -357,6 +358,70 @@ void make_perlin_tables(FlatScene<T>& flat) {
   }
 }
 
+// The numbers that make a primitive what it is, for finding copies; nothing for media and mesh instances, which
+// are kept as written.
+struct ShapeNumbers {
+  std::array<double, 28> values{};
+  std::size_t count = 0;
+  void add(const Vec3d& v) { add(v.x), add(v.y), add(v.z); }
+  void add(double x) { values[count++] = x; }
+  bool operator==(const ShapeNumbers& o) const { return count == o.count && std::equal(values.begin(), values.begin() + count, o.values.begin()); }
+};
+
+std::optional<ShapeNumbers> shape_numbers(const Primitive<double>& p, const std::vector<TriangleAttributes<double>>& attributes) {
+  ShapeNumbers n;
+  if (const auto* s = std::get_if<Sphere<double>>(&p.shape)) {
+    n.add(s->center), n.add(s->radius);
+  } else if (const auto* s = std::get_if<MovingSphere<double>>(&p.shape)) {
+    n.add(s->center0), n.add(s->radius), n.add(s->velocity), n.add(s->time0);
+  } else if (const auto* t = std::get_if<Triangle<double>>(&p.shape)) {
+    n.add(t->p0), n.add(t->edge1), n.add(t->edge2);
+    if (t->attributes >= 0) {
+      const TriangleAttributes<double>& a = attributes[static_cast<std::size_t>(t->attributes)];
+      for (int i = 0; i < 3; ++i) n.add(a.normal[i]), n.add(a.u[i]), n.add(a.v[i]);
+      n.add(a.has_normals), n.add(a.has_uvs);
+    }
+  } else if (const auto* q = std::get_if<Quad<double>>(&p.shape)) {
+    n.add(q->corner), n.add(q->du), n.add(q->dv), n.add(q->u_extent), n.add(q->v_extent);
+  } else {
+    return std::nullopt;
+  }
+  return n;
+}
+
+// Exact copies of a sphere, moving sphere, triangle or quad of the same material (for a triangle, the same normals
+// and uvs too) are drawn once, as the first written: copies are hit at the same distance, where the first found
+// wins, and as lights they would be sampled twice while hit once.
+void drop_copies(std::vector<Primitive<double>>& primitives, const std::vector<TriangleAttributes<double>>& attributes,
+                 std::vector<PrimitiveOrigin>& origins) {
+  u64 uncopyable = 0;  // hashes of primitives never dropped are all different
+  const std::vector<char> keep = first_of_each(
+      primitives.size(),
+      [&](std::size_t i) {
+        const std::optional<ShapeNumbers> n = shape_numbers(primitives[i], attributes);
+        if (!n) return ++uncopyable;
+        BitHash hash;
+        hash.add_bits(primitives[i].shape.index());
+        hash.add_bits(primitives[i].material);
+        for (std::size_t k = 0; k < n->count; ++k) hash.add(n->values[k]);
+        return hash.value() | u64{1} << 63;  // apart from the counter's values
+      },
+      [&](std::size_t a, std::size_t b) {
+        if (primitives[a].material != primitives[b].material || primitives[a].shape.index() != primitives[b].shape.index()) return false;
+        const std::optional<ShapeNumbers> x = shape_numbers(primitives[a], attributes), y = shape_numbers(primitives[b], attributes);
+        return x && y && *x == *y;
+      });
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < primitives.size(); ++i)
+    if (keep[i]) {
+      primitives[kept] = primitives[i];
+      origins[kept] = origins[i];
+      ++kept;
+    }
+  primitives.resize(kept);
+  origins.resize(kept);
+}
+
 }  // namespace
 
 template <class T>
@@ -424,6 +489,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     origins.resize(primitives.size(),
                    PrimitiveOrigin{static_cast<u32>(index), false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)});
   }
+  drop_copies(primitives, attributes, origins);
   // Meshes: one build per mesh placed once (in world space) and one per mesh placed more often (in its own space),
   // each instance's primitive pointed at its mesh and transform, and its bounds in world space.
   std::vector<MeshBuild> meshes;

@@ -8,11 +8,54 @@
 
 #include "base/free_memory.hpp"
 #include "base/scalar_types.hpp"
+#include "flat/duplicates.hpp"
 
 namespace pt {
 
 // The mesh with its vertices mapped by `placed` (the identity for a shared mesh, kept in its own space), triangles
 // with zero area dropped (they can never be hit), and its BVH built.
+namespace {
+
+// Which of a mesh's triangles to draw: all but exact copies of an earlier one, with the same corners in the same turn
+// (from any of the three) and the same material; where vertices carry normals, uvs or tangents, the same vertices.
+std::vector<char> distinct_triangles(const TriangleMesh& mesh, bool vertices_matter) {
+  const auto less = [&](u32 a, u32 b) {
+    if (vertices_matter) return a < b;
+    const Vec3d &p = mesh.positions[a], &q = mesh.positions[b];
+    return p.x != q.x ? p.x < q.x : p.y != q.y ? p.y < q.y : p.z < q.z;
+  };
+  // The corners turned to start from the least (equal corners make a triangle without area, never drawn).
+  const auto turned = [&](std::size_t t) {
+    const std::array<u32, 3>& v = mesh.triangles[t];
+    const int first = less(v[1], v[0]) ? (less(v[2], v[1]) ? 2 : 1) : (less(v[2], v[0]) ? 2 : 0);
+    return std::array<u32, 3>{v[first], v[(first + 1) % 3], v[(first + 2) % 3]};
+  };
+  const auto material = [&](std::size_t t) { return mesh.materials.empty() ? 0u : mesh.materials[t]; };
+  return first_of_each(
+      mesh.triangles.size(),
+      [&](std::size_t t) {
+        BitHash hash;
+        hash.add_bits(material(t));
+        for (const u32 v : turned(t)) {
+          const Vec3d& p = mesh.positions[v];
+          hash.add(p.x), hash.add(p.y), hash.add(p.z);
+          if (vertices_matter) hash.add_bits(v);
+        }
+        return hash.value();
+      },
+      [&](std::size_t s, std::size_t t) {
+        if (material(s) != material(t)) return false;
+        const std::array<u32, 3> a = turned(s), b = turned(t);
+        for (int k = 0; k < 3; ++k) {
+          const Vec3d &p = mesh.positions[a[k]], &q = mesh.positions[b[k]];
+          if (p.x != q.x || p.y != q.y || p.z != q.z || (vertices_matter && a[k] != b[k])) return false;
+        }
+        return true;
+      });
+}
+
+}  // namespace
+
 MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use, const AffineTransform& placed) {
   const SceneMeshFile& entry = scene.mesh_files[use.file];
   const TriangleMesh& mesh = entry.file->meshes[use.mesh];
@@ -45,12 +88,13 @@ MeshBuild build_mesh(const SceneDescription& scene, const MeshPlacementUse& use,
     float_bounds.reserve(mesh.triangles.size());
   else
     bounds.reserve(mesh.triangles.size());
+  const std::vector<char> keep = distinct_triangles(mesh, out.has_normals || out.has_uvs || file_tangents);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const std::array<u32, 3>& v = mesh.triangles[t];
     const Vec3d& a = positions[v[0]];
     const Vec3d& b = positions[v[1]];
     const Vec3d& c = positions[v[2]];
-    if (length_squared(cross(b - a, c - a)) == 0) continue;
+    if (length_squared(cross(b - a, c - a)) == 0 || !keep[t]) continue;
     const u32 file_material = mesh.materials.empty() ? 0 : mesh.materials[t];
     const u32 material = file_material < entry.materials.size() ? entry.materials[file_material] : entry.materials.at(0);
     out.triangles.push_back(mirrored ? MeshTriangle{{v[0], v[2], v[1]}, material} : MeshTriangle{{v[0], v[1], v[2]}, material});
