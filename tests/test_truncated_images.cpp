@@ -179,6 +179,52 @@ TEST(TruncatedImages, RadianceScanlinesThatWouldNeverEndAreRefused) {
   }
 }
 
+// A PNM header whose numbers have more digits than an int holds: stb_image 2.27 read them into an int, overflowing
+// (undefined behaviour, found by fuzz/fuzz_texture_image), before any size was checked. Refused from the header,
+// as textures and as environments; so is a header that does not end within its first 64 KiB of comments.
+TEST(TruncatedImages, PnmHeaderNumbersBeyondAnImagesSizeAreRefusedBeforeStbReadsThem) {
+  test::TempDir dir;
+  const std::string cases[] = {"P5" + std::string(122, '3') + "\n16\t", "P6 16 " + std::string(40, '9') + " 255\n",
+                               "P5 16 16 " + std::string(30, '7') + "\n", "P5\n#" + std::string(70000, 'c') + "\n16 16 255\n"};
+  const char* expected[] = {"corrupt: the PNM's width is more than 16777216", "corrupt: the PNM's height is more than 16777216",
+                            "corrupt: the PNM's largest value is more than 16777216", "corrupt: the PNM header runs past its first 65536 bytes"};
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE(i);
+    test::write_text_file(dir / "big.pgm", cases[i]);
+    for (const bool environment : {false, true}) {
+      try {
+        if (environment)
+          read_environment_image(dir / "big.pgm");
+        else
+          read_texture_image(dir / "big.pgm");
+        ADD_FAILURE() << "accepted";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot read image file '" + (dir / "big.pgm").string() + "': " + expected[i]), std::string::npos)
+            << e.what();
+      }
+    }
+    EXPECT_THROW(read_texture_image_from_memory(span_of(cases[i]), "big"), InputError);
+  }
+}
+
+// Empty IDAT chunks are legal PNG; stb_image 2.27 copied the first one's zero bytes into a buffer not yet allocated
+// (memcpy to a null pointer, reported by UBSan in fuzz/fuzz_texture_image, whose corpus holds that file). They are
+// left out before stb decodes: the texels are those of the PNG without them.
+TEST(TruncatedImages, EmptyPngDataChunksAreLeftOutBeforeDecoding) {
+  const std::string whole = png();
+  const std::string empty_idat("\0\0\0\0IDAT\x35\xaf\x06\x1e", 12);
+  std::string with_empty = whole;
+  with_empty.insert(33, empty_idat);  // after the signature (8 bytes) and the IHDR chunk (25)
+  with_empty.insert(with_empty.size() - 12, empty_idat);  // and before IEND
+  ASSERT_EQ(with_empty.substr(45, 8).substr(4), "IDAT");
+  const std::optional<std::vector<u8>> kept = png_without_empty_data_chunks(span_of(with_empty));
+  ASSERT_TRUE(kept.has_value());
+  EXPECT_EQ(std::string(kept->begin(), kept->end()), whole);
+  EXPECT_FALSE(png_without_empty_data_chunks(span_of(whole)).has_value());
+  const TextureImage a = read_texture_image_from_memory(span_of(whole), "whole"), b = read_texture_image_from_memory(span_of(with_empty), "empty");
+  EXPECT_EQ(a.srgb, b.srgb);
+}
+
 // The same bytes read twice give the same texels: an uncompressed TGA cut short once left the missing texels as
 // whatever the allocator returned.
 TEST(TruncatedImages, TruncatedTgaFileIsRefusedNotFilledWithUninitialisedMemory) {

@@ -153,6 +153,9 @@ std::optional<std::string> bmp_problem(std::span<const u8> bytes) {
   return needed <= bytes.size() ? std::nullopt : std::optional(short_by("the BMP's pixel rows", needed, bytes.size()));
 }
 
+// stb_image takes at most 2^24 texels on a side (STBI_MAX_DIMENSIONS) and a largest value of 65535.
+constexpr u64 kLargestPnmNumber = u64{1} << 24;
+
 // Binary PGM and PPM: "P5" or "P6", width, height and the largest value, separated by white space and comments,
 // one white-space byte, then the samples (two bytes each above 255).
 std::optional<std::string> pnm_problem(std::span<const u8> bytes) {
@@ -170,8 +173,10 @@ std::optional<std::string> pnm_problem(std::span<const u8> bytes) {
     }
     // stb reads a missing number as 0, and the samples after it as zeros.
     if (c < '0' || c > '9') return fmt::format("{}: the PNM header has no {}", walk.has(1) ? "corrupt" : "truncated", names[i]);
-    while (c >= '0' && c <= '9' && values[i] < (u64{1} << 40)) {
+    while (c >= '0' && c <= '9') {
       values[i] = values[i] * 10 + (c - '0');
+      // stb reads these numbers into an int, past whose range it overflows: beyond any image's size, refused here.
+      if (values[i] > kLargestPnmNumber) return fmt::format("corrupt: the PNM's {} is more than {}", names[i], kLargestPnmNumber);
       c = walk.byte();
     }
   }
@@ -280,6 +285,40 @@ std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
 }
 
 }  // namespace
+
+std::optional<std::string> image_header_problem(std::span<const u8> start) {
+  if (start.size() < 2 || start[0] != 'P' || (start[1] != '5' && start[1] != '6')) return std::nullopt;
+  const std::optional<std::string> problem = pnm_problem(start);
+  // Cut short within the first bytes is a fault of the header only where the header itself is cut.
+  if (problem && problem->starts_with("truncated: the PNM's samples")) return std::nullopt;
+  if (problem && problem->starts_with("truncated") && start.size() >= kImageHeaderBytes)
+    return fmt::format("corrupt: the PNM header runs past its first {} bytes", kImageHeaderBytes);
+  return problem;
+}
+
+std::optional<std::vector<u8>> png_without_empty_data_chunks(std::span<const u8> bytes) {
+  static constexpr u8 kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (bytes.size() < 8 || std::memcmp(bytes.data(), kSignature, 8) != 0) return std::nullopt;
+  // Each chunk: a 4-byte length, a 4-byte type, the data, a 4-byte CRC (which stb does not check).
+  std::vector<std::pair<std::size_t, std::size_t>> empty;  // where each empty IDAT starts, and its 12 bytes
+  ByteWalk walk(bytes);
+  for (std::size_t at = 8; at + 12 <= bytes.size();) {
+    const u64 length = walk.be32(at);
+    if (length == 0 && std::memcmp(bytes.data() + at + 4, "IDAT", 4) == 0) empty.emplace_back(at, 12);
+    if (length > bytes.size() - at - 12) break;
+    at += 12 + static_cast<std::size_t>(length);
+  }
+  if (empty.empty()) return std::nullopt;
+  std::vector<u8> kept;
+  kept.reserve(bytes.size());
+  std::size_t from = 0;
+  for (const auto& [at, size] : empty) {
+    kept.insert(kept.end(), bytes.begin() + static_cast<std::ptrdiff_t>(from), bytes.begin() + static_cast<std::ptrdiff_t>(at));
+    from = at + size;
+  }
+  kept.insert(kept.end(), bytes.begin() + static_cast<std::ptrdiff_t>(from), bytes.end());
+  return kept;
+}
 
 std::optional<std::string> image_data_problem(std::span<const u8> bytes) {
   if (bytes.size() < 2) return std::nullopt;

@@ -171,6 +171,11 @@ TextureSize texture_size(TextureSource& source, const std::string& subject) {
   if (png_header_size(header, header_size, png_width, png_height)) check_texture_size(subject, png_width, png_height);
   if (header_size > 0 && header[0] == 0xFF && !jpeg_huffman_tables_fit(source.all()))
     throw InputError(fmt::format("cannot read {}: corrupt JPEG (a Huffman table of more than 256 codes)", subject));
+  {
+    std::vector<unsigned char> start(kImageHeaderBytes);
+    start.resize(source.header(start.data(), start.size()));
+    if (const std::optional<std::string> problem = image_header_problem(start)) throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
+  }
   int width = 0, height = 0, channels = 0;
   if (!source.stb_info(&width, &height, &channels)) {
     const char* reason = stbi_failure_reason();
@@ -183,8 +188,10 @@ TextureSize texture_size(TextureSource& source, const std::string& subject) {
 TextureImage decode_texture(TextureSource& source, const std::string& subject) {
   const TextureSize size = texture_size(source, subject);
   int width = 0, height = 0, channels = 0;
-  const std::span<const unsigned char> bytes = source.all();
+  std::span<const unsigned char> bytes = source.all();
   check_image_data(bytes, subject);
+  const std::optional<std::vector<u8>> cleaned = png_without_empty_data_chunks(bytes);
+  if (cleaned) bytes = *cleaned;
   // Decoded with the image's own channels and expanded to RGB here, as stb_image would (grey repeated, alpha
   // dropped): the system's stb_image (2.27) converts a 16-bit grey PGM to RGB as if it had 8-bit samples and then
   // reads past the converted buffer.
@@ -308,14 +315,21 @@ LinearImage read_exr_environment(const std::filesystem::path& path, const std::s
 }
 
 LinearImage read_hdr_environment(std::FILE* file, int fd, const std::string& subject) {
+  {
+    std::vector<unsigned char> start(kImageHeaderBytes);
+    const ssize_t got = ::pread(fd, start.data(), start.size(), 0);
+    start.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
+    if (const std::optional<std::string> problem = image_header_problem(start)) throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
+  }
   int width = 0, height = 0, channels = 0;
   if (!stbi_info_from_file(file, &width, &height, &channels)) {
     const char* reason = stbi_failure_reason();
     throw InputError(fmt::format("cannot read {}: {}", subject, reason ? reason : "unknown format"));
   }
   check_environment_size(subject, static_cast<u64>(width), static_cast<u64>(height));
-  const std::vector<unsigned char> bytes = read_all(fd);
+  std::vector<unsigned char> bytes = read_all(fd);
   check_image_data(bytes, subject);
+  if (std::optional<std::vector<u8>> cleaned = png_without_empty_data_chunks(bytes)) bytes = std::move(*cleaned);
   float* pixels = stbi_loadf_from_memory(bytes.data(), static_cast<int>(bytes.size()), &width, &height, &channels, 3);
   if (!pixels) {
     const char* reason = stbi_failure_reason();
