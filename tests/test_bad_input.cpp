@@ -962,6 +962,15 @@ TEST_F(CommandLineErrors, CommandLineMistakesExitWithTheInputErrorCode) {
       {"render " + test::quoted(scene_) + " --no-such-option" + out, "--no-such-option"},
       {"render " + test::quoted(scene_) + " --width" + out, "--width"},
       {"bench " + test::quoted(scene_) + " --runs 0", "--runs"},
+      // NaN passes every comparison CLI11's PositiveNumber makes; an index that names no device, a SYCL device
+      // without the SYCL backend: each was accepted and ignored.
+      {"render " + test::quoted(scene_) + " --time-limit nan" + out, "--time-limit: 'nan' is not a positive number of seconds"},
+      {"render " + test::quoted(scene_) + " --time-limit inf" + out, "--time-limit: 'inf' is not"},
+      {"render " + test::quoted(scene_) + " --checkpoint " + test::quoted(dir_ / "film") + " --checkpoint-interval nan" + out,
+       "--checkpoint-interval: 'nan' is not"},
+      {"render " + test::quoted(scene_) + " --device 7" + out, "--device 7: there is no device 7 to render on: the backend is cpu"},
+      {"bench " + test::quoted(scene_) + " --device 0,3", "--device 0,3: there is no device 3"},
+      {"render " + test::quoted(scene_) + " --sycl-device 0" + out, "--sycl-device 0: only the sycl backend takes it"},
       {"numerics", "scene"},
       {"numerics " + test::quoted(scene_) + " --formats q99.99", "--formats"},
       {"", "subcommand"},

@@ -330,6 +330,33 @@ TEST(Checkpoint, FailedCheckpointStillWritesTheImage) {
   EXPECT_FALSE(temporaries_left(dir.path()));
 }
 
+// A signal that arrives while the finished image is being written: the write goes on and the image is whole, and the
+// status still says that a signal came (it was 0, so a script could not tell), with a line saying the image is complete.
+TEST(Interrupt, SignalDuringTheFinalWriteExits143WithTheImageWhole) {
+  test::TempDir dir;
+  const std::string command = "exec '" + test::pathtracer_binary() + "' render " + test::quoted(test::scene_path("tiny.json")) +
+                              " --width 2048 --height 2048 --spp 1 --depth 1 --threads 2 -o " + test::quoted(dir / "image.png") + " 2> " +
+                              test::quoted(dir / "stderr.txt");
+  const char* argv[] = {"/bin/sh", "-c", command.c_str(), nullptr};
+  pid_t pid = -1;
+  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ), 0);
+  // The image's temporary appears when the render has finished and its encoding begins (a tenth of a second or more).
+  bool writing = false;
+  for (int i = 0; i < 120000 && !writing && waitpid(pid, nullptr, WNOHANG) == 0; ++i) {
+    writing = temporaries_left(dir.path());
+    if (!writing) std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  ASSERT_TRUE(writing) << "the write was not seen";
+  kill(pid, SIGTERM);
+  EXPECT_EQ(exit_status_within(pid, 60), 143);
+  const std::string err = test::read_text_file(dir / "stderr.txt");
+  EXPECT_NE(err.find("SIGTERM arrived after the render had finished: the image of all 1 samples per pixel is complete"), std::string::npos) << err;
+  const TextureImage image = read_texture_image(dir / "image.png");  // decoded whole: no truncated data
+  EXPECT_EQ(image.width, 2048u);
+  EXPECT_EQ(image.height, 2048u);
+  EXPECT_FALSE(temporaries_left(dir.path()));
+}
+
 TEST(Interrupt, SecondInterruptEndsAtOnceWithoutTemporaries) {
   test::TempDir dir;
   EXPECT_EQ(exit_status_after(dir, "", {SIGINT, SIGINT}), 130);

@@ -150,6 +150,37 @@ TEST(UnrepresentableValues, CameraBeyondFloatAndDouble) {
   expect_accepted<double>(scene_text(inside));
 }
 
+// Values that fit the format but whose effect vanishes in it: a field of view so narrow that neighbouring pixels
+// see the same ray, a checker or noise cell below the spacing of the scene's coordinates, a repeat that leaves the
+// texture coordinates too coarse for the image's texels. Each rendered one flat colour, accepted without a word.
+TEST(UnrepresentableValues, ValuesWhoseEffectVanishesInTheFormat) {
+  const std::string base = scene_text(Parts{});
+  const std::string narrow = test::replaced(base, R"("vertical_fov": 40)", R"("vertical_fov": 1e-300)");
+  expect_refused<float>(narrow, "1e-300", "/camera/vertical_fov", {"1e-300 degrees makes a pixel", "below float's spacing", "the same ray"});
+  expect_refused<double>(narrow, "1e-300", "/camera/vertical_fov", {"below double's spacing"});
+  // A thousandth of a degree still resolves each pixel in float at this distance; a millionth only in double.
+  expect_accepted<float>(test::replaced(base, R"("vertical_fov": 40)", R"("vertical_fov": 1e-3)"));
+  const std::string millionth = test::replaced(base, R"("vertical_fov": 40)", R"("vertical_fov": 1e-6)");
+  expect_refused<float>(millionth, "1e-6", "/camera/vertical_fov", {"below float's spacing"});
+  expect_accepted<double>(millionth);
+
+  const auto textured = [&](const std::string& texture) {
+    return test::replaced(base, R"("white": {"type": "lambertian", "albedo": [0.8, 0.8, 0.8]})",
+                          R"("white": {"type": "lambertian", "texture": )" + texture + "}");
+  };
+  const std::string checker = textured(R"({"type": "checker", "odd": [0.2, 0.2, 0.2], "even": [0.9, 0.9, 0.9], "frequency": 1e30})");
+  expect_refused<float>(checker, "1e30", "/materials/white/texture/frequency", {"1e+30 makes checker cells of", "the pattern vanishes"});
+  expect_refused<double>(checker, "1e30", "/materials/white/texture/frequency", {"below double's spacing"});
+  expect_accepted<float>(textured(R"({"type": "checker", "odd": [0.2, 0.2, 0.2], "even": [0.9, 0.9, 0.9], "frequency": 1e4})"));
+  const std::string noise = textured(R"({"type": "noise", "scale": 1e12})");
+  expect_refused<float>(noise, "1e12", "/materials/white/texture/scale", {"makes noise cells of"});
+  expect_accepted<double>(noise);
+  const std::string image = textured(R"({"type": "image", "file": "textures/planet-1024x512.png", "repeat": 1e30})");
+  expect_refused<float>(image, "1e30", "/materials/white/texture/repeat", {"too coarse to tell the image's 1024x512 texels apart"});
+  expect_refused<double>(image, "1e30", "/materials/white/texture/repeat", {"double's texture coordinates"});
+  expect_accepted<float>(textured(R"({"type": "image", "file": "textures/planet-1024x512.png", "repeat": 1000})"));
+}
+
 TEST(UnrepresentableValues, TriangleEdgeBeyondFloat) {
   // A triangle's normal squares the squared length of cross(edge1, edge2): its edges have a range of their own.
   expect_refused<float>(

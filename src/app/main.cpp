@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -316,7 +317,13 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     fmt::print(stderr, "pathtracer: error: {} (the image was written to {})\n", *checkpoint_failure, options.output);
     return kErrorExitCode;
   }
-  return caught ? 128 + caught : 0;
+  // A signal that came while the image was written (the write goes on through it) still ends the program with its
+  // status, so that a script can tell; the image is whole.
+  const int signal_at_end = interrupt_signal.load();
+  if (signal_at_end != 0 && caught == 0 && !options.quiet)
+    fmt::print(stderr, "{} arrived after the render had finished: the image of all {} samples per pixel is complete\n",
+               signal_at_end == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM", film.samples_done);
+  return signal_at_end != 0 ? 128 + signal_at_end : 0;
 }
 
 int run_render(const RenderOptions& options, Clock::time_point program_start, Distributed* mpi = nullptr) {
@@ -539,12 +546,21 @@ int main(int argc, char** argv) {
   render->add_flag("-q,--quiet", options.quiet, "No progress and no summary");
   render->add_flag("-v,--verbose", options.verbose,
                    "Print the time of each phase (device start, scene load, BVH build, upload, render, read-back, encode)");
+  // CLI11's PositiveNumber lets "nan" and "inf" through (no comparison fails for NaN).
+  const CLI::Validator seconds(
+      [](const std::string& text) {
+        double value = 0;
+        if (!CLI::detail::lexical_cast(text, value) || !std::isfinite(value) || !(value > 0))
+          return fmt::format("'{}' is not a positive number of seconds", clip(text));
+        return std::string();
+      },
+      "SECONDS > 0");
   render->add_option("--time-limit", options.time_limit, "Stop after this many seconds of rendering (at least one pass) and write the image so far")
-      ->check(CLI::PositiveNumber);
+      ->check(seconds);
   render->add_option("--checkpoint", options.checkpoint,
                      "Save the film to this file now and then, when stopped, and at the end (resume it with --resume)");
   render->add_option("--checkpoint-interval", options.checkpoint_interval, "Seconds between saves of the film")
-      ->check(CLI::PositiveNumber)
+      ->check(seconds)
       ->capture_default_str();
   render->add_option("--resume", options.resume, "Go on from a film saved by --checkpoint (same scene and settings; --spp may be raised)");
   bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
@@ -585,6 +601,9 @@ int main(int argc, char** argv) {
       list_devices();
       return 0;
     }
+    if ((*render || *bench) && options.sycl_device >= 0 && options.backend != "sycl")
+      throw InputError(fmt::format("--sycl-device {}: only the sycl backend takes it ({})", options.sycl_device,
+                                   std::ranges::count(backend_names(), std::string("sycl")) == 0 ? "this build has none" : "--backend sycl"));
     if (*bench) return run_bench(options);
     if (*numerics) return run_numerics(numerics_options);
     if (launched_by_mpi()) exit_without_teardown(run_distributed_render(options, program_start, argc, argv));

@@ -72,6 +72,14 @@ inline const char* quantity_name(Quantity q) {
   }
 }
 
+// The spacing of T's values near `magnitude`: one ulp in floating point, one step in fixed point. A value whose effect
+// is finer than this where it acts (a pixel's footprint on the image plane, a checker cell at the scene's
+// coordinates) vanishes in T, and is refused like a value out of range.
+template <class T>
+double spacing(double magnitude) {
+  return 2 * (static_cast<double>(ScalarTraits<T>::rounding_unit()) * std::abs(magnitude) + static_cast<double>(ScalarTraits<T>::rounding_step()));
+}
+
 // Where a pointer's components are: "/center" -> "/center/0".
 inline std::string component(const std::string& pointer, int i) { return pointer + "/" + std::to_string(i); }
 
@@ -99,6 +107,12 @@ class Fit {
   std::string material(u32 i) const { return i < scene_.written.materials.size() ? scene_.written.materials[i] : fmt::format("(material {})", i); }
   double scale() const { return scale_; }
 
+  // Refuses what `pointer` says with `reason`, placed as values out of range are.
+  [[noreturn]] void fail(const std::string& pointer, const std::string& reason) const {
+    if (pointer.empty()) throw InputError(fmt::format("{}: {}", scene_.source, reason));
+    throw InputError(fmt::format("{}: {}: {}", source_position(scene_, pointer), pointer, reason));
+  }
+
  private:
   [[noreturn]] void refuse(double value, Quantity q, const std::string& pointer, const std::string& note) const {
     const std::string type = number_format_name<T>();
@@ -116,8 +130,7 @@ class Fit {
                            quantity_name(q), limit);
     else
       reason = fmt::format("{:g}{}{} is beyond {}'s range (|x| <= {:.3g})", written, what, after, type, limit);
-    if (pointer.empty()) throw InputError(fmt::format("{}: {}", scene_.source, reason));  // a model given as the scene
-    throw InputError(fmt::format("{}: {}: {}", source_position(scene_, pointer), pointer, reason));
+    fail(pointer, reason);
   }
 
   const SceneDescription& scene_;

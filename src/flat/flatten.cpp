@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <stdexcept>
 #include <utility>
@@ -61,6 +62,33 @@ void flatten_environment(const Fit<T>& fit, const SceneDescription& scene, FlatS
   for (int i = 0; i < 3; ++i)
     map.to_map.rows[i] = Vec3<T>{static_cast<T>(environment.rotation.rotation[0][i]), static_cast<T>(environment.rotation.rotation[1][i]),
                                  static_cast<T>(environment.rotation.rotation[2][i])};
+}
+
+// Texture scales whose pattern vanishes in a floating-point T: a checker or noise cell, or a texel after `repeat`,
+// finer than T's spacing of the values it is looked up from (positions within `extent`, texture coordinates
+// times the repeat), so that every point gets the same cell or texel (a uv_checker's at most 2^20 cells a side
+// always resolve). Fixed point resolves
+// texture coordinates in fixed steps whatever the value (docs/numerics.md); its range is checked by Fit.
+template <class T>
+void check_texture_scale(const Fit<T>& fit, const Texture<double>& texture, const std::string& at, double extent) {
+  if constexpr (!is_fixed_v<T>) {
+    const std::string type = number_format_name<T>();
+    const auto cells = [&](double per_unit, const std::string& key, const std::string& what, double shown) {
+      if (per_unit * spacing<T>(extent) >= 1)
+        fit.fail(at + key, fmt::format("{:g} makes {} of {:g}, below {}'s spacing of the scene's coordinates ({:g} near {:g}): the "
+                                       "pattern vanishes (at most about {:.3g})",
+                                       shown, what, 1 / per_unit, type, spacing<T>(extent), extent, shown / (per_unit * spacing<T>(extent))));
+    };
+    if (const auto* t = std::get_if<CheckerTexture<double>>(&texture)) cells(t->cells_per_unit, "/frequency", "checker cells", t->cells_per_unit * std::numbers::pi);
+    if (const auto* t = std::get_if<NoiseTexture<double>>(&texture)) cells(t->scale, "/scale", "noise cells", t->scale);
+    if (const auto* t = std::get_if<ImageTexture<double>>(&texture)) {
+      const double texel = 1.0 / std::max(t->width, t->height);
+      if (spacing<T>(t->repeat) >= texel)
+        fit.fail(at + "/repeat", fmt::format("{:g} leaves {}'s texture coordinates too coarse to tell the image's {}x{} texels apart (at "
+                                             "most about {:.3g})",
+                                             t->repeat, type, t->width, t->height, t->repeat * texel / spacing<T>(t->repeat)));
+    }
+  }
 }
 
 template <class T>
@@ -328,6 +356,18 @@ Camera<T> fit_camera(const Fit<T>& fit, const CameraSettings& c, u32 width, u32 
   fit(c.focus_distance, Quantity::kLength, "/camera", "the focus distance, focus_distance or |look_at - look_from|");
   fit(c.aperture, Quantity::kLength, "/camera/aperture");
   const Camera<double> d = make_camera<double>(c, width, height);
+  // A pixel's step across the image plane must be at least one step of T's values there, or neighbouring pixels
+  // see the same ray (a vertical_fov of 1e-300 gave every pixel one ray).
+  {
+    const auto largest_component = [](const Vec3d& v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); };
+    const double at = std::max({largest_component(d.origin), largest_component(d.lower_left),
+                                largest_component(d.lower_left + d.horizontal + d.vertical)});
+    const double step = std::min(largest_component(d.horizontal) / width, largest_component(d.vertical) / height);
+    if (!(step >= spacing<T>(at)))
+      fit.fail("/camera/vertical_fov", fmt::format("{:g} degrees makes a pixel {:g} wide on the image plane, below {}'s spacing of "
+                                                   "coordinates there ({:g} near {:g}): neighbouring pixels would see the same ray",
+                                                   c.vertical_fov, step, number_format_name<T>(), spacing<T>(at), at));
+  }
   const std::string plane = " of the image on the focus plane (from vertical_fov, the image's shape and the focus distance)";
   return Camera<T>{fit(d.origin, Quantity::kLength, "/camera/look_from"),
                    fit(d.lower_left, Quantity::kLength, "/camera", "the lower-left corner" + plane),
@@ -598,6 +638,10 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
                                   fit(scene.background.zenith, Quantity::kColour, scene.written.zenith),
                                   {}};
   if (scene.environment) flatten_environment(fit, scene, flat);
+  {
+    const double extent = scene_extent(bounds, make_camera<double>(camera, settings.width, settings.height));
+    for (u32 i = 0; i < textures.size(); ++i) check_texture_scale(fit, textures[i], fit.texture(i), extent);
+  }
   for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
   for (u32 i = 0; i < scene.materials.size(); ++i) flat.materials.push_back(fit_material(fit, scene.materials[i], fit.material(i)));
   std::vector<Primitive<T>> converted;
