@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Several devices and several MPI processes render one image, bitwise the same as one device, and a process that
-# fails stops the run with one error and no image. Usage: test_distributed.sh PATHTRACER SCENE CASE [MPIEXEC]
+# Several devices and several MPI processes render one image, bitwise the same as one device; a process that fails
+# stops the run with one error and no image, and one that stalls or dies has its rows rendered by the others. Usage: test_distributed.sh PATHTRACER SCENE CASE [MPIEXEC]
 set -euo pipefail
 pathtracer=$1 scene=$2 case=$3 mpiexec=${4:-mpirun}
 work=$(mktemp -d)
@@ -82,6 +82,53 @@ case "$case" in
     [ -e part.pfm ] || { echo "FAIL: no image of the samples done"; exit 1; }
     mpi 2 "$pathtracer" render "$scene" "${spp[@]}" -q --resume film.ckpt -o resumed.pfm
     same one.pfm resumed.pfm "interrupted under mpirun, saved by rank 0, resumed across 2 ranks"
+    ;;
+  mpi-lost-rank)
+    # A rank that stalls (SIGSTOP) or dies (SIGKILL, under mpirun --enable-recovery, which lets the job go on) once
+    # the render is under way: rank 0 names it when its band is overdue, the others render its rows, and the image
+    # is the one of an uninterrupted process; the run ends (the lost rank too) with status 0. It once hung forever.
+    spp=(--width 96 --height 74 --spp 300 --threads 1)
+    "$pathtracer" render "$scene" "${spp[@]}" -q -o one.pfm
+    for fault in STOP KILL; do
+      rm -f film.ckpt lost.pfm
+      recovery=()
+      [ $fault = KILL ] && recovery=(--enable-recovery)
+      timeout 120 "$mpiexec" -np 2 --oversubscribe "${recovery[@]}" "$pathtracer" render "$scene" "${spp[@]}" --checkpoint film.ckpt \
+        --checkpoint-interval 0.1 -o lost.pfm 2>err.txt &
+      launcher=$!
+      # After the first pass (the checkpoint is saved after each), so that the bands' costs are known.
+      for _ in $(seq 600); do [ -e film.ckpt ] && break; sleep 0.1; done
+      ranks=()
+      for pid in $(pgrep -f "$pathtracer render"); do
+        if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1; then ranks+=("$pid"); fi
+      done
+      [ ${#ranks[@]} -eq 1 ] || { echo "FAIL: rank 1 not found"; kill -KILL $launcher; exit 1; }
+      kill -$fault "${ranks[0]}"
+      status=0
+      wait $launcher || status=$?
+      kill -KILL "${ranks[0]}" 2>/dev/null || true
+      cat err.txt
+      [ "$status" -eq 0 ] || { echo "FAIL: SIG$fault of rank 1: status $status"; exit 1; }
+      grep -q '^pathtracer: warning: rank 1 (host .*) has not answered for .* s.*; the other ranks render its rows' err.txt ||
+        { echo "FAIL: SIG$fault of rank 1 is not named"; exit 1; }
+      same one.pfm lost.pfm "rank 1 lost to SIG$fault: its rows rendered by rank 0"
+    done
+    # Killed under plain mpirun, which then ends the job (SIGTERM to rank 0): rank 0 writes the image of the passes
+    # done and the checkpoint, which one process resumes to the uninterrupted image.
+    rm -f film.ckpt lost.pfm
+    timeout 120 "$mpiexec" -np 2 --oversubscribe "$pathtracer" render "$scene" "${spp[@]}" --checkpoint film.ckpt --checkpoint-interval 0.1 \
+      -o lost.pfm 2>err.txt &
+    launcher=$!
+    for _ in $(seq 600); do [ -e film.ckpt ] && break; sleep 0.1; done
+    for pid in $(pgrep -f "$pathtracer render"); do
+      if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1; then kill -KILL "$pid"; fi
+    done
+    wait $launcher || true
+    grep -q "stopped by SIGTERM after .* of 300 samples per pixel; film saved to film.ckpt" err.txt ||
+      { cat err.txt; echo "FAIL: rank 0 did not save what it had when mpirun ended the job"; exit 1; }
+    [ -e lost.pfm ] || { echo "FAIL: no image of the samples done"; exit 1; }
+    "$pathtracer" render "$scene" "${spp[@]}" -q --resume film.ckpt -o resumed.pfm
+    same one.pfm resumed.pfm "rank 1 killed under plain mpirun: rank 0's checkpoint resumed by one process"
     ;;
   *) echo "unknown case $case"; exit 2 ;;
 esac

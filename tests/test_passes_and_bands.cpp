@@ -49,6 +49,11 @@ class OtherProcessWorker final : public BandWorker {
       return false;
     }
     if (stop()) return false;
+    if (lost_after >= 0 && bands >= lost_after) {
+      EXPECT_FALSE(is_lost.load()) << "a band was given to a lost worker";
+      is_lost = true;
+      throw WorkerLost("stand-in rank has not answered");
+    }
     std::vector<FilmPixel> there(from.begin(), from.end());  // the band travels by copy, as a message does
     device_->render_rows(work.first_row, work.row_count, work.first_sample, work.sample_count, there);
     std::copy(there.begin(), there.end(), into.begin());
@@ -59,6 +64,9 @@ class OtherProcessWorker final : public BandWorker {
   std::atomic<int> bands = 0, late_bands = 0;
   u32 late_sample = ~0u;
   bool holds_late_bands = false;
+  int lost_after = -1;  // from this many bands on, each band given is given up: the rank stopped answering
+  std::atomic<bool> is_lost = false;
+  bool lost() const override { return is_lost.load(); }
 
  private:
   std::unique_ptr<RenderBackend<float>> device_;
@@ -88,6 +96,33 @@ TEST(BandsWithAnotherProcess, ImageIsBitwiseThatOfOneDevice) {
   u64 samples = 0;
   for (const auto& [name, share] : shared.work_shares()) samples += share;
   EXPECT_EQ(samples, static_cast<u64>(scene.params.width) * scene.params.height * 6);
+}
+
+// A rank lost mid-render (it threw WorkerLost, as a rank that does not answer by its band's deadline does) has its
+// band rendered by the others, gets no band after, and the image is still bitwise that of one device.
+TEST(BandsWithAnotherProcess, LostRanksBandGoesToTheOthersAndTheImageIsTheSame) {
+  SceneDescription description = load_scene_file(test::scene_path("tiny.json"));
+  description.render.samples_per_pixel = 6;
+  const FlatScene<float> scene = test::flatten<float>(description);
+  const std::unique_ptr<RenderBackend<float>> one = make_cpu_backend<float>(2);
+  const RenderedFilm alone = render_film(*one, scene);
+  for (const int lost_after : {0, 1}) {
+    SCOPED_TRACE(lost_after);
+    std::vector<std::unique_ptr<RenderBackend<float>>> devices;
+    devices.push_back(make_cpu_backend<float>(1));
+    std::vector<std::unique_ptr<BandWorker>> remote;
+    auto worker = std::make_unique<OtherProcessWorker>(scene, scene.params.width);
+    OtherProcessWorker* rank = worker.get();
+    rank->lost_after = lost_after;
+    remote.push_back(std::move(worker));
+    MultiBackend<float> shared(std::move(devices), std::move(remote));
+    const RenderedFilm together = render_film(shared, scene);
+    const std::vector<FilmPixel> a(alone.pixels().begin(), alone.pixels().end());
+    const std::vector<FilmPixel> b(together.pixels().begin(), together.pixels().end());
+    EXPECT_TRUE(test::same_film(a, b));
+    EXPECT_EQ(rank->bands, lost_after);
+    EXPECT_TRUE(rank->is_lost.load());
+  }
 }
 
 // The film of `samples` samples per pixel rendered by one device.

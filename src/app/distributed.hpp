@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -45,8 +46,13 @@ class Distributed {
   // for each. `check` is rank 0's key of the scene and settings (film/checkpoint.hpp): a rank that has loaded
   // another scene or settings is refused. Throws RemoteError naming the first rank that failed.
   std::vector<std::unique_ptr<BandWorker>> gather_workers(u64 check);
-  // Rank 0: tells every other rank that the run is over (after its end or a failure).
+  // Rank 0: tells every other rank that the run is over (after its end or a failure); a rank lost is not told.
   void stop_all();
+  // Rank 0: whether a rank was lost during the render (it died or stopped answering; its bands went to the others).
+  bool any_lost() const;
+  // Rank 0, once its image is written: where a rank was lost, ends the run for every rank with `status` (MPI_Abort,
+  // since MPI_Finalize would wait for the lost rank); else returns, and the destructor finalises.
+  void finish(int status);
 
   // Other ranks: tells rank 0 that this one is ready, with its key and its devices' name, or why it is not.
   void report_ready(u64 check, const std::string& name);
@@ -60,6 +66,8 @@ class Distributed {
   std::string host_;
   std::vector<std::string> hosts_;  // rank 0: every rank's host
   bool stopped_ = false;
+  mutable std::mutex lost_mutex_;
+  std::vector<char> lost_;  // rank 0: per rank, whether it was lost
 };
 
 }  // namespace pt

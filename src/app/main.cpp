@@ -394,6 +394,7 @@ int run_distributed_render(const RenderOptions& options, Clock::time_point progr
       fmt::print(stderr, "pathtracer: error: {}: {}\n", mpi->where(0), e.what());
     }
     mpi->stop_all();
+    mpi->finish(status);
   }
   mpi.reset();  // MPI_Finalize: waits for every rank
   return status;

@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <exception>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -44,13 +46,29 @@ bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
     }
   }
   const u64 halves = 2 * static_cast<u64>(workers.size());
+  const std::function<bool()> stopping = stop.requested ? stop.requested : [] { return false; };
+  std::atomic<bool> failed{false}, given_up{false};
   std::mutex cursor_mutex;
-  u32 cursor = 0;  // rows of `work` handed out so far
-  // The next band's first row (within `work`) and rows; no rows once all are out. Half of an even share of what is
-  // left: of its cost where that is known, else of its rows; `bounded`: no longer than the stop allows.
+  std::condition_variable band_back;              // a band came back, or one fewer is out
+  u32 cursor = 0;                                 // rows of `work` handed out so far
+  u32 out = 0;                                    // bands handed out and not yet back
+  std::vector<std::pair<u32, u32>> returned;      // bands of lost workers, to hand out again
+  // The next band's first row (within `work`) and rows; no rows once all are out and back. A band a lost worker
+  // gave back first; else half of an even share of what is left: of its cost where that is known, else of its
+  // rows; `bounded`: no longer than the stop allows. With nothing left to hand out while bands are still out, waits:
+  // one may come back.
   const auto take = [&](bool bounded) -> std::pair<u32, u32> {
-    const std::lock_guard lock(cursor_mutex);
+    std::unique_lock lock(cursor_mutex);
+    while (returned.empty() && cursor == work.row_count && out > 0 && !failed.load() && !stopping())
+      band_back.wait_for(lock, std::chrono::milliseconds(10));
+    if (!returned.empty()) {
+      const std::pair<u32, u32> band = returned.back();
+      returned.pop_back();
+      ++out;
+      return band;
+    }
     const u32 left = work.row_count - cursor;
+    if (left == 0) return {0, 0};
     u64 share = (static_cast<u64>(left) + halves - 1) / halves;
     if (!cost.empty()) {
       const double target = cost[cursor] + (cost[work.row_count] - cost[cursor]) / static_cast<double>(halves);
@@ -66,13 +84,20 @@ bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
     }
     const u32 first = cursor;
     cursor += rows;
+    ++out;
     return {first, rows};
   };
-  const std::function<bool()> stopping = stop.requested ? stop.requested : [] { return false; };
-  std::atomic<bool> failed{false}, given_up{false};
+  // A band is back: rendered (or left on a stop), or given back by a lost worker.
+  const auto back = [&](std::optional<std::pair<u32, u32>> again) {
+    const std::lock_guard lock(cursor_mutex);
+    --out;
+    if (again) returned.push_back(*again);
+    band_back.notify_all();
+  };
   std::exception_ptr first_error;
   std::mutex error_mutex;
   const auto drive = [&](std::size_t w) {
+    if (workers[w]->lost()) return;
     try {
       while (!failed.load() && !stopping()) {
         const auto [first, rows] = take(!workers[w]->leaves_bands());
@@ -83,7 +108,18 @@ bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
         part.expected_seconds = cost.empty() ? 0.0 : (cost[first + rows] - cost[first]) * part.sample_count;
         const auto start = std::chrono::steady_clock::now();
         const std::size_t offset = static_cast<std::size_t>(first) * width, size = static_cast<std::size_t>(rows) * width;
-        if (!workers[w]->render_band(part, from.subspan(offset, size), into.subspan(offset, size), stopping)) {
+        bool rendered = false;
+        try {
+          rendered = workers[w]->render_band(part, from.subspan(offset, size), into.subspan(offset, size), stopping);
+        } catch (const WorkerLost&) {
+          back(std::pair{first, rows});
+          return;
+        } catch (...) {
+          back(std::nullopt);
+          throw;
+        }
+        back(std::nullopt);
+        if (!rendered) {
           given_up = true;
           break;
         }
@@ -110,7 +146,8 @@ bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
     for (std::thread& t : threads) t.join();
   }
   if (first_error) std::rethrow_exception(first_error);
-  return cursor == work.row_count && !given_up.load();
+  if (!returned.empty() && !given_up.load() && !stopping()) throw BackendError("every device of the run stopped answering");
+  return cursor == work.row_count && returned.empty() && !given_up.load();
 }
 
 }  // namespace pt

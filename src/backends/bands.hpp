@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <functional>
 #include <span>
+#include <stdexcept>
 #include <string>
 
 #include "kernel/integrator.hpp"
@@ -16,6 +17,13 @@ struct BandWork {
   u32 first_row = 0, row_count = 0;
   u32 first_sample = 0, sample_count = 0;
   double expected_seconds = 0;  // what its rows took when last rendered, by whichever worker; 0: not known
+};
+
+// Thrown by render_band when a worker gives its band up because it stopped answering (an MPI rank that died or
+// stalls): render_bands hands the band to the other workers, and the worker is lost() from then on.
+class WorkerLost : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 // Something that renders bands: a device's backend in this process, or another process of an MPI run.
@@ -32,6 +40,8 @@ class BandWorker {
   // Whether render_band can leave a band on a stop (a worker waiting for it elsewhere); a device of this process
   // cannot.
   virtual bool leaves_bands() const { return false; }
+  // Whether the worker has stopped answering (render_band threw WorkerLost): it is given no more bands.
+  virtual bool lost() const { return false; }
 };
 
 // How the pass render_bands renders may be given up: once `requested` returns true no more bands are handed out
@@ -57,8 +67,10 @@ u32 min_band_rows(u32 height, std::size_t workers);
 // rendered. `row_costs`, where given, holds the seconds a sample of each row of the image took when last rendered
 // (0: not yet): bands are then cut to equal shares of cost rather than of rows, since rows of sky cost a fraction
 // of rows of glass and an expensive band handed out early would hold up the end of the pass; each band rendered
-// updates its rows. After a failure no more bands are handed out; the first error is rethrown once every worker
-// has stopped. Returns whether every band was rendered: false where `stop` gave the pass up, and then `into` holds
+// updates its rows. A band whose worker is lost (WorkerLost) goes to the next worker free, and workers that are
+// done wait for the bands still out, so that every row is rendered whoever is lost, as long as one worker is left;
+// lost workers are given nothing. After a failure no more bands are handed out; the first error is rethrown once
+// every worker has stopped. Returns whether every band was rendered: false where `stop` gave the pass up, and then `into` holds
 // some rows rendered, some not, and is to be dropped (which is why a pass that may stop needs two films).
 bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWork& work, std::span<const FilmPixel> from, std::span<FilmPixel> into,
                   u32 min_rows, std::span<u64> shares, std::span<double> row_costs = {}, const PassStop& stop = {});
