@@ -300,12 +300,12 @@ std::optional<std::vector<u8>> png_without_empty_data_chunks(std::span<const u8>
   static constexpr u8 kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   if (bytes.size() < 8 || std::memcmp(bytes.data(), kSignature, 8) != 0) return std::nullopt;
   // Each chunk: a 4-byte length, a 4-byte type, the data, a 4-byte CRC (which stb does not check).
-  std::vector<std::pair<std::size_t, std::size_t>> empty;  // where each empty IDAT starts, and its 12 bytes
+  std::vector<std::pair<std::size_t, std::size_t>> empty;  // where each empty IDAT starts, and its bytes (12, or fewer at the end)
   ByteWalk walk(bytes);
-  for (std::size_t at = 8; at + 12 <= bytes.size();) {
+  for (std::size_t at = 8; at + 8 <= bytes.size();) {  // stb reads a chunk whose length and type are there
     const u64 length = walk.be32(at);
-    if (length == 0 && std::memcmp(bytes.data() + at + 4, "IDAT", 4) == 0) empty.emplace_back(at, 12);
-    if (length > bytes.size() - at - 12) break;
+    if (length == 0 && std::memcmp(bytes.data() + at + 4, "IDAT", 4) == 0) empty.emplace_back(at, std::min<std::size_t>(12, bytes.size() - at));
+    if (at + 12 > bytes.size() || length > bytes.size() - at - 12) break;
     at += 12 + static_cast<std::size_t>(length);
   }
   if (empty.empty()) return std::nullopt;
