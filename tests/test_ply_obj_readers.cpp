@@ -587,6 +587,52 @@ TEST(PolygonCutting, LargePolygonsAreCutExactlyWithWorkLinearInTheirCorners) {
   }
 }
 
+// tinyobjloader counts a face's corners in a byte: faces of more than 255 corners were read again with its own
+// triangulation, which takes time quadratic in the corners (half a minute for 100,000) and cuts concave faces wrong.
+// Their counts now come from the text, and they are cut as every polygon is: a star of 20,000 corners, a face of
+// exactly 256 (a count of 0 in a byte) and a triangle between them read with their areas exact and no warning.
+TEST(ObjReader, FacesOfMoreThan255CornersAreCutAsEveryPolygonIs) {
+  test::TempDir dir;
+  constexpr int kStar = 20000, kRing = 256;
+  const double pi = std::acos(-1.0);
+  std::string obj;
+  for (int i = 0; i < kStar; ++i) {
+    const double angle = 2 * pi * i / kStar, radius = i % 2 == 0 ? 1.0 : 0.5;
+    obj += fmt::format("v {:.17g} {:.17g} 0\n", radius * std::cos(angle), radius * std::sin(angle));
+  }
+  for (int i = 0; i < kRing; ++i) obj += fmt::format("v {:.17g} {:.17g} 1\n", std::cos(2 * pi * i / kRing), std::sin(2 * pi * i / kRing));
+  obj += "f";
+  for (int i = 1; i <= kStar; ++i) obj += fmt::format(" {}", i);
+  obj += fmt::format("\nf 1 {} {}\n\tf", kStar / 4 + 1, kStar / 2 + 1);
+  for (int i = 1; i <= kRing; ++i) obj += fmt::format("\t{}", kStar + i);
+  obj += " \r\n";
+  test::write_text_file(dir / "big-faces.obj", obj);
+  const MeshFile file = read_mesh_file(dir / "big-faces.obj");
+  EXPECT_TRUE(file.warnings.empty()) << test::all_warnings(file);
+  ASSERT_EQ(file.meshes.size(), 1u);
+  const TriangleMesh& mesh = file.meshes[0];
+  ASSERT_EQ(mesh.triangles.size(), static_cast<std::size_t>(kStar - 2 + 1 + kRing - 2));
+  // Signed areas in the xy plane, by face: each triangle keeps its face's winding, and they add up to the faces' own.
+  double star = 0, triangle = 0, ring = 0;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Vec3d& a = mesh.positions[mesh.triangles[t][0]];
+    const Vec3d& b = mesh.positions[mesh.triangles[t][1]];
+    const Vec3d& c = mesh.positions[mesh.triangles[t][2]];
+    const double area = ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y)) / 2;
+    EXPECT_GE(area, 0) << t;
+    (t < kStar - 2 ? star : t == kStar - 2 ? triangle : ring) += area;
+  }
+  std::vector<Vec3d> star_corners, ring_corners;
+  for (int i = 0; i < kStar; ++i) {
+    const double angle = 2 * pi * i / kStar, radius = i % 2 == 0 ? 1.0 : 0.5;
+    star_corners.push_back({radius * std::cos(angle), radius * std::sin(angle), 0});
+  }
+  for (int i = 0; i < kRing; ++i) ring_corners.push_back({std::cos(2 * pi * i / kRing), std::sin(2 * pi * i / kRing), 1});
+  EXPECT_NEAR(star, shoelace_area(star_corners), 1e-9);
+  EXPECT_NEAR(ring, shoelace_area(ring_corners), 1e-9);
+  EXPECT_NEAR(triangle, 1.0, 1e-9);  // (1, 0), (0, 1), (-1, 0)
+}
+
 // A model given as the scene has a camera placed to frame it: where a vertex does not fit the kernels' type, the
 // vertex is named, not the camera (which was blamed as /camera/look_from/0, a path the model does not have).
 TEST(ObjReader, VertexBeyondTheKernelsRangeIsNamedRatherThanTheCameraFramingIt) {

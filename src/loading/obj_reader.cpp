@@ -301,17 +301,14 @@ class ObjReader {
   MeshFile read() {
     prepare_text(text_);
     Parsed parsed = parse(false);
-    // tinyobjloader counts a face's corners in a byte: where a face has more than 255, the counts do not add up,
-    // and the file is read again with tinyobjloader's own triangulation.
-    bool counted = true;
-    for (const tinyobj::shape_t& shape : parsed.shapes) {
-      u64 corners = 0;
-      for (const unsigned char count : shape.mesh.num_face_vertices) corners += count;
-      counted = counted && corners == shape.mesh.indices.size();
-    }
-    if (!counted) {
+    // tinyobjloader counts a face's corners in a byte: a face of more than 255 corners has its count from the text
+    // (count_face_corners). Should the text's faces not match tinyobjloader's, the file is read again with
+    // tinyobjloader's own triangulation (which may cut concave faces wrong, and takes time quadratic in the corners).
+    if (!count_face_corners(parsed.shapes)) {
       parsed = parse(true);
       warnings_.push_back("faces of more than 255 corners are cut into triangles by tinyobjloader, which may cut concave ones wrong");
+      face_corners_.clear();
+      for (const tinyobj::shape_t& shape : parsed.shapes) face_corners_.emplace_back(shape.mesh.num_face_vertices.begin(), shape.mesh.num_face_vertices.end());
     }
     const bool bad_indices = sort_warnings(parsed.warnings);
     check_numbers(parsed.attrib);
@@ -332,6 +329,52 @@ class ObjReader {
     std::vector<MaterialSource> sources;  // one per material
     std::string warnings;
   };
+
+  // Each face's corners, per shape, in tinyobjloader's order: its byte counts where none is above 255 (the usual
+  // case), else the counts of the text's `f` lines, taken only where they match tinyobjloader's faces (the same
+  // counts modulo 256, the same total per shape). False where they do not.
+  bool count_face_corners(const std::vector<tinyobj::shape_t>& shapes) {
+    face_corners_.clear();
+    bool exact = true;
+    for (const tinyobj::shape_t& shape : shapes) {
+      u64 corners = 0;
+      for (const unsigned char count : shape.mesh.num_face_vertices) corners += count;
+      exact = exact && corners == shape.mesh.indices.size();
+      face_corners_.emplace_back(shape.mesh.num_face_vertices.begin(), shape.mesh.num_face_vertices.end());
+    }
+    if (exact) return true;
+    // The text's faces as tinyobjloader reads them: a line whose first word is `f`, its corners separated by spaces,
+    // tabs and carriage returns; faces of fewer than 3 corners it drops.
+    std::vector<u32> counts;
+    for (std::size_t at = 0; at < text_.size();) {
+      std::size_t end = text_.find('\n', at);
+      if (end == std::string::npos) end = text_.size();
+      std::size_t i = at;
+      while (i < end && (text_[i] == ' ' || text_[i] == '\t')) ++i;
+      if (i + 1 < end && text_[i] == 'f' && (text_[i + 1] == ' ' || text_[i + 1] == '\t')) {
+        u32 words = 0;
+        for (i += 2; i < end;) {
+          while (i < end && (text_[i] == ' ' || text_[i] == '\t' || text_[i] == '\r')) ++i;
+          if (i == end) break;
+          ++words;
+          while (i < end && text_[i] != ' ' && text_[i] != '\t' && text_[i] != '\r') ++i;
+        }
+        if (words >= 3) counts.push_back(words);
+      }
+      at = end + 1;
+    }
+    std::size_t next = 0;
+    for (std::size_t s = 0; s < shapes.size(); ++s) {
+      u64 corners = 0;
+      for (u32& count : face_corners_[s]) {
+        if (next == counts.size() || (counts[next] & 0xFFu) != count) return false;
+        count = counts[next++];
+        corners += count;
+      }
+      if (corners != shapes[s].mesh.indices.size()) return false;
+    }
+    return next == counts.size();
+  }
 
   Parsed parse(bool triangulate) const {
     Parsed parsed;
@@ -529,8 +572,9 @@ class ObjReader {
       }
       std::vector<int>& material_ids = material_ids_.emplace_back();
       std::size_t first = 0;
-      for (std::size_t face = 0; face < shape.mesh.num_face_vertices.size(); ++face) {
-        const std::size_t count = shape.mesh.num_face_vertices[face];
+      const std::vector<u32>& face_corners = face_corners_[static_cast<std::size_t>(&shape - shapes.data())];
+      for (std::size_t face = 0; face < face_corners.size(); ++face) {
+        const std::size_t count = face_corners[face];
         polygon.clear();
         for (std::size_t k = 0; k < count; ++k) polygon.push_back(mesh.positions[vertex[first + k]]);
         cut.clear();
@@ -796,6 +840,7 @@ class ObjReader {
   MeshFile out_;
   std::vector<std::string> warnings_;
   std::vector<std::vector<int>> material_ids_;  // per mesh, per triangle: tinyobjloader's material, or -1
+  std::vector<std::vector<u32>> face_corners_;  // per shape, per face: its corners (count_face_corners)
   std::map<std::string, i32> textures_;
   std::map<std::array<int, 4>, i32> combined_;  // metallic and roughness images (and channels) -> their packed texture
 };
