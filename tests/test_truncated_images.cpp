@@ -231,6 +231,23 @@ TEST(TruncatedImages, EmptyPngDataChunksAreLeftOutBeforeDecoding) {
   EXPECT_THROW(read_texture_image_from_memory(span_of(cut), "cut"), InputError);
 }
 
+// A PNG whose data chunk claims 2 GiB in a file of a few hundred bytes: stb_image grew its buffer to the claimed size
+// before reading (found by fuzz/fuzz_texture_image as an allocation of 2 GiB). Refused from the chunk's length.
+TEST(TruncatedImages, PngChunkRunningPastTheEndIsRefusedBeforeStbAllocatesForIt) {
+  std::string bytes = png();
+  const std::size_t idat = bytes.find("IDAT") - 4;
+  bytes[idat] = '\x7f', bytes[idat + 1] = '\xff', bytes[idat + 2] = '\xff', bytes[idat + 3] = '\xf0';
+  try {
+    read_texture_image_from_memory(span_of(bytes), "claims");
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(fmt::format("cannot read image 'claims': truncated: the PNG's chunk 'IDAT' at byte {} would end at byte {}", idat,
+                                                     idat + 12 + 0x7ffffff0u)),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 // The same bytes read twice give the same texels: an uncompressed TGA cut short once left the missing texels as
 // whatever the allocator returned.
 TEST(TruncatedImages, TruncatedTgaFileIsRefusedNotFilledWithUninitialisedMemory) {

@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "base/errors.hpp"
+
 namespace pt {
 namespace {
 
@@ -284,6 +286,23 @@ std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
   return fmt::format("truncated: the JPEG ends at byte {} without its end-of-image marker", bytes.size());
 }
 
+// PNG: chunks of a 4-byte length, a 4-byte type, the data and a 4-byte CRC, up to IEND. stb_image grows its buffer
+// for the compressed data to a data chunk's length before it reads the chunk (2 GiB for a 200-byte file that claims
+// so much), so a chunk that runs past the end of the file is refused first. (What zlib's stream holds, stb checks.)
+std::optional<std::string> png_problem(std::span<const u8> bytes) {
+  ByteWalk walk(bytes);
+  for (std::size_t at = 8;;) {
+    if (at > bytes.size() || bytes.size() - at < 8) return fmt::format("truncated: the PNG ends at byte {}, inside a chunk's length and type", bytes.size());
+    const u64 length = walk.be32(at);
+    const std::string type(reinterpret_cast<const char*>(bytes.data() + at + 4), 4);
+    if (length > bytes.size() - at - 8 || bytes.size() - at - 8 - length < 4)
+      return fmt::format("truncated: the PNG's chunk '{}' at byte {} would end at byte {}, the image has {} bytes", escape_control_characters(type),
+                         at, at + 12 + length, bytes.size());
+    if (type == "IEND") return std::nullopt;
+    at += 12 + static_cast<std::size_t>(length);
+  }
+}
+
 }  // namespace
 
 std::optional<std::string> image_header_problem(std::span<const u8> start) {
@@ -329,7 +348,7 @@ std::optional<std::string> image_data_problem(std::span<const u8> bytes) {
   if (starts_with(bytes, "GIF8")) return gif_problem(bytes);
   if (bytes[0] == 0xFF && bytes[1] == 0xD8) return jpeg_problem(bytes);
   static constexpr u8 kPng[4] = {0x89, 'P', 'N', 'G'};
-  if (bytes.size() >= 4 && std::memcmp(bytes.data(), kPng, 4) == 0) return std::nullopt;  // zlib's stream ends or fails
+  if (bytes.size() >= 4 && std::memcmp(bytes.data(), kPng, 4) == 0) return png_problem(bytes);
   // TGA has no magic number: stb takes what its header test accepts as one (image types 1-3 and 9-11).
   const unsigned type = bytes.size() >= 3 ? bytes[2] : 0;
   if ((type >= 1 && type <= 3) || (type >= 9 && type <= 11)) return tga_problem(bytes);
