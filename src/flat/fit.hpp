@@ -77,7 +77,10 @@ inline const char* quantity_name(Quantity q) {
 // coordinates) vanishes in T, and is refused like a value out of range.
 template <class T>
 double spacing(double magnitude) {
-  return 2 * (static_cast<double>(ScalarTraits<T>::rounding_unit()) * std::abs(magnitude) + static_cast<double>(ScalarTraits<T>::rounding_step()));
+  // Fixed point: one step (ScalarTraits' rounding step; its rounding unit bounds the error of products, not the
+  // spacing of values). Floating point: twice the unit roundoff, relative.
+  if constexpr (is_fixed_v<T>) return static_cast<double>(ScalarTraits<T>::rounding_step());
+  return 2 * static_cast<double>(ScalarTraits<T>::rounding_unit()) * std::abs(magnitude);
 }
 
 // Where a pointer's components are: "/center" -> "/center/0".

@@ -348,6 +348,24 @@ Camera<T> make_camera(const CameraSettings& c, u32 width, u32 height) {
                    to<T>(u * lens_radius), to<T>(v * lens_radius), scalar<T>(c.shutter_open), scalar<T>(c.shutter_close - c.shutter_open)};
 }
 
+// A pixel's step across the image plane must be at least one step of T's values there, or neighbouring pixels see
+// the same ray (a vertical_fov of 1e-300 gave every pixel one ray). Checked once every value has been fitted, so
+// that a scene beyond the format's range is named for that first.
+template <class T>
+void check_pixel_resolution(const Fit<T>& fit, const CameraSettings& c, u32 width, u32 height) {
+  const Camera<double> d = make_camera<double>(c, width, height);
+  const auto largest_component = [](const Vec3d& v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); };
+  const double at =
+      std::max({largest_component(d.origin), largest_component(d.lower_left), largest_component(d.lower_left + d.horizontal + d.vertical)});
+  const double step = std::min(largest_component(d.horizontal) / width, largest_component(d.vertical) / height);
+  if (!(step >= spacing<T>(at)))
+    fit.fail("/camera/vertical_fov",
+             fmt::format("{:g} degrees makes a pixel {:g} wide on the image plane{}, below {}'s spacing of coordinates there ({:g} near {:g}): "
+                         "neighbouring pixels would see the same ray",
+                         c.vertical_fov, step, fit.scale() != 1 ? fmt::format(" after scaling lengths by {:g}", fit.scale()) : "",
+                         number_format_name<T>(), spacing<T>(at), at));
+}
+
 // The camera in the kernels' type, its settings checked first (they are lengths even where not stored as such).
 template <class T>
 Camera<T> fit_camera(const Fit<T>& fit, const CameraSettings& c, u32 width, u32 height) {
@@ -356,18 +374,6 @@ Camera<T> fit_camera(const Fit<T>& fit, const CameraSettings& c, u32 width, u32 
   fit(c.focus_distance, Quantity::kLength, "/camera", "the focus distance, focus_distance or |look_at - look_from|");
   fit(c.aperture, Quantity::kLength, "/camera/aperture");
   const Camera<double> d = make_camera<double>(c, width, height);
-  // A pixel's step across the image plane must be at least one step of T's values there, or neighbouring pixels
-  // see the same ray (a vertical_fov of 1e-300 gave every pixel one ray).
-  {
-    const auto largest_component = [](const Vec3d& v) { return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)}); };
-    const double at = std::max({largest_component(d.origin), largest_component(d.lower_left),
-                                largest_component(d.lower_left + d.horizontal + d.vertical)});
-    const double step = std::min(largest_component(d.horizontal) / width, largest_component(d.vertical) / height);
-    if (!(step >= spacing<T>(at)))
-      fit.fail("/camera/vertical_fov", fmt::format("{:g} degrees makes a pixel {:g} wide on the image plane, below {}'s spacing of "
-                                                   "coordinates there ({:g} near {:g}): neighbouring pixels would see the same ray",
-                                                   c.vertical_fov, step, number_format_name<T>(), spacing<T>(at), at));
-  }
   const std::string plane = " of the image on the focus plane (from vertical_fov, the image's shape and the focus distance)";
   return Camera<T>{fit(d.origin, Quantity::kLength, "/camera/look_from"),
                    fit(d.lower_left, Quantity::kLength, "/camera", "the lower-left corner" + plane),
@@ -649,6 +655,9 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, scene, primitives[i], origins[i], open, close));
   for (std::size_t i = 0; i < boundaries.size(); ++i)
     flat.boundaries.push_back(fit_primitive(fit, scene, boundaries[i], boundary_origins[i], open, close));
+  // The double primitives are converted: freed before the BVH's build, the largest allocation that follows.
+  std::vector<Primitive<double>>().swap(primitives);
+  std::vector<PrimitiveOrigin>().swap(origins);
   for (std::size_t k = 0; k < attributes.size(); ++k) {
     const TriangleAttributes<double>& a = attributes[k];
     TriangleAttributes<T> out{};
@@ -687,14 +696,16 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
         fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                     scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
   }
-  flat.primitives.reserve(primitives.size());
+  flat.primitives.reserve(converted.size());
   for (u32 index : bvh.order) flat.primitives.push_back(converted[index]);
+  std::vector<Primitive<T>>().swap(converted);
   flat.texels = scene.texels;
   flat.srgb_decode = srgb_decode_table();
   flat.params = RenderParams<T>{settings.width,  settings.height,         settings.max_depth,
                                 settings.seed,   settings.roulette_depth, settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u,
                                 settings.sampler};
   flat.samples_per_pixel = settings.samples_per_pixel;
+  check_pixel_resolution(fit, camera, settings.width, settings.height);
   build_light_table(flat);
   return flat;
 }

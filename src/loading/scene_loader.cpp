@@ -866,7 +866,10 @@ SceneDescription load_scene_file(const std::filesystem::path& file, ModelReferen
   }
   std::string text;
   if (!input.read_all(text)) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
-  return parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path(), references);
+  SceneDescription scene = parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path(), references);
+  scene.written.text.reset();  // read again from the file for a message (source_position)
+  scene.written.file = file;
+  return scene;
 }
 
 }  // namespace pt

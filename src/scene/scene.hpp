@@ -4,11 +4,13 @@
 #include <array>
 #include <cstddef>
 #include <deque>
+#include <filesystem>
 #include <iterator>
 #include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <tuple>
 #include <utility>
 #include <variant>
@@ -202,10 +204,32 @@ class ObjectList {
 // as the parser does, FILE:LINE:COLUMN: /json/path (source_position below). Object i is
 // always "/objects/i" and the camera "/camera"; textures and materials, written inline or under a name, are
 // listed here. Empty for scenes made in code.
+// JSON paths one after another in one buffer: a scene of a million inline materials keeps their characters and an
+// offset each, where a string each took 64 bytes or more.
+class JsonPathList {
+ public:
+  void push_back(std::string_view path) {
+    chars_ += path;
+    ends_.push_back(chars_.size());
+  }
+  std::size_t size() const { return ends_.size(); }
+  std::string operator[](std::size_t i) const {
+    const std::size_t begin = i == 0 ? 0 : ends_[i - 1];
+    return chars_.substr(begin, ends_[i] - begin);
+  }
+
+ private:
+  std::string chars_;
+  std::vector<std::size_t> ends_;
+};
+
 struct SceneSourceMap {
-  std::shared_ptr<const std::string> text;  // the scene file's text, where lines and columns are looked up
-  std::vector<std::string> textures;        // per texture its JSON path; for a solid texture, that of its colour array
-  std::vector<std::string> materials;       // per material its JSON path (under /materials, or inline in an object)
+  // The scene's text, where lines and columns are looked up; for a scene read from a file, let go once it is parsed
+  // (a large scene's text is hundreds of megabytes) and read again from `file` when a message needs a place.
+  std::shared_ptr<const std::string> text;
+  std::filesystem::path file;
+  JsonPathList textures;   // per texture its JSON path; for a solid texture, that of its colour array
+  JsonPathList materials;  // per material its JSON path (under /materials, or inline in an object)
   std::string horizon = "/background/horizon", zenith = "/background/zenith";  // the background's two colours
   std::string environment = "/background/file";                                // the environment image
 };
