@@ -590,7 +590,7 @@ TEST(BvhStructure, ExactCopiesAreDrawnOnce) {
     scene.objects.push_back(object(Sphere<double>{{0, 0, -1}, 0.5}));
     scene.objects.push_back(object(TriangleSettings{{Vec3d{0, 0, -2}, Vec3d{1, 0, -2}, Vec3d{0, 1, -2}}, std::nullopt, std::nullopt}));
   }
-  scene.objects.push_back(object(Sphere<double>{{0, 0, -1}, 0.5}, 2));                                    // another material
+  scene.objects.push_back(object(Sphere<double>{{0, 0, -1}, 0.5}, 2));  // another material
   scene.objects.push_back(object(TriangleSettings{{Vec3d{0, 0, -2}, Vec3d{0, 1, -2}, Vec3d{1, 0, -2}}, std::nullopt, std::nullopt}));  // turned over
   scene.objects.push_back(object(Sphere<double>{{0, 0, -1}, 0.5}, 0, RigidTransform::from_euler_degrees({0, 0, 0}, {0, 0, 1e-9})));
   const FlatScene<float> flat = flatten_scene<float>(scene, RenderSettings{});

@@ -748,7 +748,8 @@ TEST(ObjReader, FilesOutsideTheModelsFolderAreRefused) {
     test::write_text_file(dir / "model" / name, "mtllib " + mtllib + "\n" + faces);
     return dir / "model" / name;
   };
-  expect_refused(obj("up.obj", "../outside.mtl"), {"line 1: material library", (dir / "model/../outside.mtl").string(), "outside the model's folder"});
+  expect_refused(obj("up.obj", "../outside.mtl"),
+                 {"line 1: material library", (dir / "model/../outside.mtl").string(), "outside the model's folder"});
   expect_refused(obj("absolute.obj", (dir / "outside.mtl").string()), {"line 1: material library", "outside the model's folder"});
   expect_refused(obj("passwd.obj", "../../../../../../../../etc/passwd"), {"line 1: material library", "outside the model's folder"});
   std::filesystem::create_symlink(dir / "outside.mtl", dir / "model/link.mtl");

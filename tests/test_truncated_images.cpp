@@ -31,7 +31,9 @@ std::vector<u8> texels(int channels, int width = kWidth) {
   return bytes;
 }
 
-void append(void* context, void* data, int size) { static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size)); }
+void append(void* context, void* data, int size) {
+  static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size));
+}
 
 std::string written(const std::function<int(std::string*)>& write) {
   std::string bytes;
@@ -94,7 +96,10 @@ std::string psd(bool run_length) {
   return bytes;
 }
 // One texel, white, from a two-entry global colour table; the last byte is the trailer, which stb does not need.
-std::string gif() { return std::string("GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00\x2c\x00\x00\x00\x00\x01\x00\x01\x00\x00\x02\x02\x44\x01\x00\x3b", 35); }
+std::string gif() {
+  return std::string("GIF89a\x01\x00\x01\x00\x80\x00\x00\xff\xff\xff\x00\x00\x00\x2c\x00\x00\x00\x00\x01\x00\x01\x00\x00\x02\x02\x44\x01\x00\x3b",
+                     35);
+}
 
 struct Format {
   const char* name;
@@ -172,7 +177,8 @@ TEST(TruncatedImages, RadianceScanlinesThatWouldNeverEndAreRefused) {
       read_environment_image(dir / "sky.hdr");
       ADD_FAILURE() << i;
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("cannot read image file '" + (dir / "sky.hdr").string() + "': " + expected[i]), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("cannot read image file '" + (dir / "sky.hdr").string() + "': " + expected[i]), std::string::npos)
+          << e.what();
     }
     EXPECT_THROW(read_texture_image(dir / "sky.hdr"), InputError) << i;
     EXPECT_THROW(read_texture_image_from_memory(span_of(cases[i]), "sky"), InputError) << i;
@@ -214,7 +220,7 @@ TEST(TruncatedImages, EmptyPngDataChunksAreLeftOutBeforeDecoding) {
   const std::string whole = png();
   const std::string empty_idat("\0\0\0\0IDAT\x35\xaf\x06\x1e", 12);
   std::string with_empty = whole;
-  with_empty.insert(33, empty_idat);  // after the signature (8 bytes) and the IHDR chunk (25)
+  with_empty.insert(33, empty_idat);                      // after the signature (8 bytes) and the IHDR chunk (25)
   with_empty.insert(with_empty.size() - 12, empty_idat);  // and before IEND
   ASSERT_EQ(with_empty.substr(45, 8).substr(4), "IDAT");
   const std::optional<std::vector<u8>> kept = png_without_empty_data_chunks(span_of(with_empty));
@@ -241,8 +247,8 @@ TEST(TruncatedImages, PngChunkRunningPastTheEndIsRefusedBeforeStbAllocatesForIt)
     read_texture_image_from_memory(span_of(bytes), "claims");
     ADD_FAILURE() << "accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find(fmt::format("cannot read image 'claims': truncated: the PNG's chunk 'IDAT' at byte {} would end at byte {}", idat,
-                                                     idat + 12 + 0x7ffffff0u)),
+    EXPECT_NE(std::string(e.what()).find(fmt::format("cannot read image 'claims': truncated: the PNG's chunk 'IDAT' at byte {} would end at byte {}",
+                                                     idat, idat + 12 + 0x7ffffff0u)),
               std::string::npos)
         << e.what();
   }
@@ -258,9 +264,10 @@ TEST(TruncatedImages, TruncatedTgaFileIsRefusedNotFilledWithUninitialisedMemory)
     read_texture_image(dir / "cut.tga");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("cannot read image file '" + (dir / "cut.tga").string() + "': truncated: the TGA's pixels would end at byte " +
-                                         std::to_string(whole.size()) + ", the image has " + std::to_string(whole.size() / 2) + " bytes"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("cannot read image file '" + (dir / "cut.tga").string() + "': truncated: the TGA's pixels would end at byte " +
+                                   std::to_string(whole.size()) + ", the image has " + std::to_string(whole.size() / 2) + " bytes"),
+        std::string::npos)
         << e.what();
   }
 }

@@ -218,9 +218,9 @@ class RankWorker final : public BandWorker {
         left_bytes_ = into.size_bytes();
         return false;
       }
-      lose(work.expected_seconds > 0 ? fmt::format("has not answered for {:.1f} s, where its band's rows took {:.2f} s before", allowed,
-                                                   work.expected_seconds)
-                                     : fmt::format("has not answered for {:.0f} s", allowed));
+      lose(work.expected_seconds > 0
+               ? fmt::format("has not answered for {:.1f} s, where its band's rows took {:.2f} s before", allowed, work.expected_seconds)
+               : fmt::format("has not answered for {:.0f} s", allowed));
     }
     if (reply->MPI_TAG == kFailed) throw RemoteError(fmt::format("{}: {}", where_, receive_text(*reply)));
     receive_bytes(into.data(), into.size_bytes(), rank_, kBandDone, transfer_deadline(into.size_bytes()));
@@ -231,8 +231,9 @@ class RankWorker final : public BandWorker {
   void receive_band_left() {
     if (left_bytes_ == 0) return;
     const std::optional<MPI_Status> found =
-        probe_unless(rank_, {}, std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                                      std::chrono::duration<double>(kFirstDeadline)));
+        probe_unless(rank_, {},
+                     std::chrono::steady_clock::now() +
+                         std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(kFirstDeadline)));
     if (!found) {  // it never came: the rank is lost, and the run ends without it
       lost_ = true;
       left_bytes_ = 0;

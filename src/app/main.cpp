@@ -231,7 +231,8 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     device_seconds = seconds_since(start);
     return made;
   });
-  const SceneDescription scene = phases.time("scene load", [&] { return load_scene_file(options.scene, model_references(options.trust_model_paths)); });
+  const SceneDescription scene =
+      phases.time("scene load", [&] { return load_scene_file(options.scene, model_references(options.trust_model_paths)); });
   if (!options.quiet)
     for (const std::string& warning : scene.warnings) fmt::print(stderr, "warning: {}\n", escape_control_characters(warning));
   const RenderSettings settings = effective_settings(options, scene);

@@ -49,10 +49,10 @@ bool render_bands(std::span<BandWorker* const> workers, u32 width, const BandWor
   const std::function<bool()> stopping = stop.requested ? stop.requested : [] { return false; };
   std::atomic<bool> failed{false}, given_up{false};
   std::mutex cursor_mutex;
-  std::condition_variable band_back;              // a band came back, or one fewer is out
-  u32 cursor = 0;                                 // rows of `work` handed out so far
-  u32 out = 0;                                    // bands handed out and not yet back
-  std::vector<std::pair<u32, u32>> returned;      // bands of lost workers, to hand out again
+  std::condition_variable band_back;          // a band came back, or one fewer is out
+  u32 cursor = 0;                             // rows of `work` handed out so far
+  u32 out = 0;                                // bands handed out and not yet back
+  std::vector<std::pair<u32, u32>> returned;  // bands of lost workers, to hand out again
   // The next band's first row (within `work`) and rows; no rows once all are out and back. A band a lost worker
   // gave back first; else half of an even share of what is left: of its cost where that is known, else of its
   // rows; `bounded`: no longer than the stop allows. With nothing left to hand out while bands are still out, waits:

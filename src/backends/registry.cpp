@@ -111,8 +111,8 @@ DeviceList parse_device_list(const std::string& text, const std::string& backend
     } else if (!entry.empty() && entry.size() <= 4 && entry.find_first_not_of("0123456789") == std::string::npos) {
       // Rendering on the CPU, index 0 (the default) names the CPU; any other would be silently the CPU too.
       if (cpu_only && std::atoi(entry.c_str()) != 0)
-        throw InputError(fmt::format("--device {}: there is no device {} to render on: the backend is {}, whose one device is cpu (or 0)", text, entry,
-                                     backend == "cpu" ? "cpu" : "auto, without a GPU,"));
+        throw InputError(fmt::format("--device {}: there is no device {} to render on: the backend is {}, whose one device is cpu (or 0)", text,
+                                     entry, backend == "cpu" ? "cpu" : "auto, without a GPU,"));
       list.entries.push_back(cpu_only ? kCpuDevice : std::atoi(entry.c_str()));
     } else {
       throw InputError(fmt::format("--device {}: expected an index, all, cpu, local-rank, or indices and cpu joined by commas", text));

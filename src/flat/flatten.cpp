@@ -79,7 +79,8 @@ void check_texture_scale(const Fit<T>& fit, const Texture<double>& texture, cons
                                        "pattern vanishes (at most about {:.3g})",
                                        shown, what, 1 / per_unit, type, spacing<T>(extent), extent, shown / (per_unit * spacing<T>(extent))));
     };
-    if (const auto* t = std::get_if<CheckerTexture<double>>(&texture)) cells(t->cells_per_unit, "/frequency", "checker cells", t->cells_per_unit * std::numbers::pi);
+    if (const auto* t = std::get_if<CheckerTexture<double>>(&texture))
+      cells(t->cells_per_unit, "/frequency", "checker cells", t->cells_per_unit * std::numbers::pi);
     if (const auto* t = std::get_if<NoiseTexture<double>>(&texture)) cells(t->scale, "/scale", "noise cells", t->scale);
     if (const auto* t = std::get_if<ImageTexture<double>>(&texture)) {
       const double texel = 1.0 / std::max(t->width, t->height);
@@ -685,9 +686,10 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
       try {
         flat.camera = fit_camera(fit, camera, settings.width, settings.height);
       } catch (const InputError&) {
-        throw InputError(fmt::format("{}: the camera placed to frame the model, {:g} from its centre, is beyond {}'s range although the "
-                                     "model is not (give it a camera of its own in a scene file)",
-                                     scene.source, length(camera.look_from - camera.look_at), number_format_name<T>()));
+        throw InputError(
+            fmt::format("{}: the camera placed to frame the model, {:g} from its centre, is beyond {}'s range although the "
+                        "model is not (give it a camera of its own in a scene file)",
+                        scene.source, length(camera.look_from - camera.look_at), number_format_name<T>()));
       }
     }
     flat.bvh_seconds = mesh_bvh_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - bvh_start).count();

@@ -29,8 +29,8 @@ struct MeshPlacementUse {
 // scene materials) in BVH order and its BVH over them. Vertices, normals and texture coordinates are not copied:
 // they are read from the file's mesh, mapped by `placed`, when converted.
 struct MeshBuild {
-  u32 object;        // the first object placing it, for messages
-  std::string name;  // the file's name for it
+  u32 object;         // the first object placing it, for messages
+  std::string name;   // the file's name for it
   std::string where;  // the JSON path of the object placing it, for messages (none for a model given as the scene)
   const TriangleMesh* source = nullptr;
   AffineTransform placed;  // mesh space to the space the mesh is stored in (the identity for a shared mesh)

@@ -84,7 +84,8 @@ std::optional<std::string> radiance_problem(std::span<const u8> bytes) {
     walk.skip(4);
     for (int channel = 0; channel < 4; ++channel) {
       for (u64 done = 0; done < width;) {
-        if (!walk.has(1)) return fmt::format("truncated: Radiance scanline {} of {} ends at byte {} inside its run-length data", row + 1, height, bytes.size());
+        if (!walk.has(1))
+          return fmt::format("truncated: Radiance scanline {} of {} ends at byte {} inside its run-length data", row + 1, height, bytes.size());
         unsigned count = walk.byte();
         const bool run = count > 128;
         if (run) count -= 128;
@@ -215,7 +216,8 @@ std::optional<std::string> psd_problem(std::span<const u8> bytes) {
   if (!walk.skip(height * channels * 2)) return short_by("the PSD's row lengths", walk.position() + height * channels * 2, bytes.size());
   for (u64 channel = 0; channel < read_channels; ++channel) {
     for (u64 done = 0; done < pixels;) {
-      if (!walk.has(1)) return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
+      if (!walk.has(1))
+        return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
       const unsigned length = walk.byte();
       if (length == 128) continue;
       const u64 count = length < 128 ? length + 1 : 257 - length;
@@ -272,9 +274,9 @@ std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
     if (!walk.has(2)) return fmt::format("truncated: the JPEG ends at byte {} before its image data", bytes.size());
     if (walk.byte() != 0xFF) return std::nullopt;  // not a marker: stb refuses it itself
     unsigned marker = walk.byte();
-    while (marker == 0xFF && walk.has(1)) marker = walk.byte();  // fill bytes
+    while (marker == 0xFF && walk.has(1)) marker = walk.byte();          // fill bytes
     if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // markers without a segment
-    if (marker == 0xD9) return std::nullopt;                              // an image without a scan: stb refuses it
+    if (marker == 0xD9) return std::nullopt;                             // an image without a scan: stb refuses it
     if (!walk.has(2)) return fmt::format("truncated: the JPEG ends at byte {} inside a segment's length", bytes.size());
     const u64 length = walk.be16(walk.position());
     if (length < 2) return std::nullopt;
@@ -292,7 +294,8 @@ std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
 std::optional<std::string> png_problem(std::span<const u8> bytes) {
   ByteWalk walk(bytes);
   for (std::size_t at = 8;;) {
-    if (at > bytes.size() || bytes.size() - at < 8) return fmt::format("truncated: the PNG ends at byte {}, inside a chunk's length and type", bytes.size());
+    if (at > bytes.size() || bytes.size() - at < 8)
+      return fmt::format("truncated: the PNG ends at byte {}, inside a chunk's length and type", bytes.size());
     const u64 length = walk.be32(at);
     const std::string type(reinterpret_cast<const char*>(bytes.data() + at + 4), 4);
     if (length > bytes.size() - at - 8 || bytes.size() - at - 8 - length < 4)

@@ -174,7 +174,8 @@ TextureSize texture_size(TextureSource& source, const std::string& subject) {
   {
     std::vector<unsigned char> start(kImageHeaderBytes);
     start.resize(source.header(start.data(), start.size()));
-    if (const std::optional<std::string> problem = image_header_problem(start)) throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
+    if (const std::optional<std::string> problem = image_header_problem(start))
+      throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
   }
   int width = 0, height = 0, channels = 0;
   if (!source.stb_info(&width, &height, &channels)) {
@@ -319,7 +320,8 @@ LinearImage read_hdr_environment(std::FILE* file, int fd, const std::string& sub
     std::vector<unsigned char> start(kImageHeaderBytes);
     const ssize_t got = ::pread(fd, start.data(), start.size(), 0);
     start.resize(got > 0 ? static_cast<std::size_t>(got) : 0);
-    if (const std::optional<std::string> problem = image_header_problem(start)) throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
+    if (const std::optional<std::string> problem = image_header_problem(start))
+      throw InputError(fmt::format("cannot read {}: {}", subject, *problem));
   }
   int width = 0, height = 0, channels = 0;
   if (!stbi_info_from_file(file, &width, &height, &channels)) {

@@ -315,8 +315,7 @@ class Checker {
     const std::string decoded = decode_uri(uri);
     if (decoded.empty() || decoded.find('\0') != std::string::npos) fail(where, fmt::format("'{}' is not a file name", uri));
     // tinygltf joins every URI to the model's folder: an absolute path would be read as a name within it.
-    if (decoded.front() == '/')
-      fail(where, fmt::format("'{}' is an absolute path; file names are read relative to the model's folder", clip(uri)));
+    if (decoded.front() == '/') fail(where, fmt::format("'{}' is an absolute path; file names are read relative to the model's folder", clip(uri)));
     const std::string path = input_.folder_prefix + decoded;
     if (const std::string outside = outside_model_folder(input_.folder_prefix, path, input_.references); !outside.empty())
       fail(where, fmt::format("'{}' {}", clip(uri), outside));

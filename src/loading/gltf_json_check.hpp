@@ -29,10 +29,10 @@ std::string decode_uri(const std::string& uri);
 
 // What the JSON is read against.
 struct JsonCheckInput {
-  std::string file_name;                // for messages
-  std::string folder_prefix;            // the folder of the file, ending in '/': external files are relative to it
-  bool binary = false;                  // a .glb
-  std::optional<u64> bin_chunk_length;  // a .glb's BIN chunk, if it has one
+  std::string file_name;                                           // for messages
+  std::string folder_prefix;                                       // the folder of the file, ending in '/': external files are relative to it
+  bool binary = false;                                             // a .glb
+  std::optional<u64> bin_chunk_length;                             // a .glb's BIN chunk, if it has one
   ModelReferences references = ModelReferences::kInsideItsFolder;  // which external files may be named
 };
 

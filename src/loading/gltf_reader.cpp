@@ -272,7 +272,8 @@ class Converter {
       warn("modes", fmt::format("points and lines are not rendered: {} primitives of mode {}", undrawn_, modes));
     }
     if (singular_placements_ > 0)
-      warn("singular", fmt::format("{} placements of meshes by nodes whose transform is singular (a scale of 0) are not drawn", singular_placements_));
+      warn("singular",
+           fmt::format("{} placements of meshes by nodes whose transform is singular (a scale of 0) are not drawn", singular_placements_));
   }
 
  private:
@@ -340,7 +341,8 @@ class Converter {
         // A transform too large to be finite is a fault of the file; a singular one (a scale of 0) hides a mesh, as
         // animations do, and is skipped with a warning.
         if (!finite_transform(world))
-          fail(fmt::format("/nodes/{}", index), "its transform, with its parents', is too large to be finite (it scales volumes by more than 1.8e308)");
+          fail(fmt::format("/nodes/{}", index),
+               "its transform, with its parents', is too large to be finite (it scales volumes by more than 1.8e308)");
         if (world.determinant() == 0) {
           ++singular_placements_;
         } else {

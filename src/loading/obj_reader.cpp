@@ -308,7 +308,8 @@ class ObjReader {
       parsed = parse(true);
       warnings_.push_back("faces of more than 255 corners are cut into triangles by tinyobjloader, which may cut concave ones wrong");
       face_corners_.clear();
-      for (const tinyobj::shape_t& shape : parsed.shapes) face_corners_.emplace_back(shape.mesh.num_face_vertices.begin(), shape.mesh.num_face_vertices.end());
+      for (const tinyobj::shape_t& shape : parsed.shapes)
+        face_corners_.emplace_back(shape.mesh.num_face_vertices.begin(), shape.mesh.num_face_vertices.end());
     }
     const bool bad_indices = sort_warnings(parsed.warnings);
     check_numbers(parsed.attrib);

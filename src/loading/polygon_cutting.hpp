@@ -10,9 +10,9 @@
 namespace pt {
 
 struct PolygonCut {
-  bool ears_found = true;         // false for a polygon without an ear (self-intersecting), cut as a fan instead
-  std::size_t ears_tried = 0;     // the work done, about linear in the corners: corners tried as an ear's tip,
-  std::size_t corner_tests = 0;   // and corners tested for lying inside a candidate ear
+  bool ears_found = true;        // false for a polygon without an ear (self-intersecting), cut as a fan instead
+  std::size_t ears_tried = 0;    // the work done, about linear in the corners: corners tried as an ear's tip,
+  std::size_t corner_tests = 0;  // and corners tested for lying inside a candidate ear
 };
 
 // Appends to `out` triangles of corner numbers (0 to corners.size() - 1) that cover the polygon with its winding. A

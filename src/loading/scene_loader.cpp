@@ -126,7 +126,8 @@ class Node {
           best = a;
         }
       }
-      child(key).fail(best.empty() ? fmt::format("unknown key '{}'", clip(key)) : fmt::format("unknown key '{}' (did you mean '{}'?)", clip(key), best));
+      child(key).fail(best.empty() ? fmt::format("unknown key '{}'", clip(key))
+                                   : fmt::format("unknown key '{}' (did you mean '{}'?)", clip(key), best));
     }
   }
 
@@ -440,8 +441,8 @@ class SceneReader {
     }
     const u64 bytes = u64{3} * size.width * size.height;
     if (scene_.texels.size() + pending_texel_bytes_ + bytes > kMaxSceneTexelBytes)
-      where.fail(fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)",
-                             kMaxSceneTexelBytes >> 20));
+      where.fail(
+          fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)", kMaxSceneTexelBytes >> 20));
     pending_images_.push_back(PendingImage{path, where.place(), pending_texel_bytes_, bytes});
     const ImageRef ref{size.width, size.height, pending_images_.size() - 1};
     pending_texel_bytes_ += bytes;
@@ -553,8 +554,8 @@ class SceneReader {
       const double normal_scale = n.has("normal_scale") ? n.child("normal_scale").number_in(-100, 100) : 1.0;
       return add_material(MetallicRoughness<double>{base, factors, normal_map, normal_scale}, n.pointer());
     }
-    n.child("type").fail(
-        fmt::format("unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light, isotropic or metallic_roughness)", clip(type)));
+    n.child("type").fail(fmt::format(
+        "unknown material type '{}' (expected lambertian, metal, dielectric, diffuse_light, isotropic or metallic_roughness)", clip(type)));
   }
 
   u32 read_material_reference(const Node& n) {
@@ -611,8 +612,8 @@ class SceneReader {
     try {
       const u32 index = add_mesh_file(scene_, std::make_shared<const MeshFile>(read_mesh_file(path, references_)), n.pointer());
       if (scene_.texels.size() + pending_texel_bytes_ > kMaxSceneTexelBytes)  // with the scene file's images, not yet decoded
-        n.fail(fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)",
-                           kMaxSceneTexelBytes >> 20));
+        n.fail(
+            fmt::format("the scene's images are too large in total (at most {} MiB of texels; see docs/scene-format.md)", kMaxSceneTexelBytes >> 20));
       mesh_files_.emplace(key, index);
       return index;
     } catch (const InputError& e) {

@@ -255,8 +255,8 @@ struct SceneDescription {
   SceneSourceMap written;  // where its parts were written in that file
   RenderSettings render;
   CameraSettings camera;
-  bool model_as_scene = false;       // read from a model file given as the scene: its values have no JSON paths
-  bool camera_frames_model = false;  // the camera was placed to frame that model: it was not written
+  bool model_as_scene = false;                                    // read from a model file given as the scene: its values have no JSON paths
+  bool camera_frames_model = false;                               // the camera was placed to frame that model: it was not written
   Background<double> background{{1, 1, 1}, {0.5, 0.7, 1.0}, {}};  // the gradient (its environment part is unused here)
   std::optional<EnvironmentSettings> environment;                 // in place of the gradient when present
   std::vector<Texture<double>> textures;
