@@ -169,9 +169,16 @@ TEST(TruncatedImages, EveryFormatReadsWholeAndIsRefusedWhenCutAnywhere) {
 TEST(TruncatedImages, RadianceScanlinesThatWouldNeverEndAreRefused) {
   test::TempDir dir;
   const std::string header = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 32 +X 64\n";
-  const std::string cases[] = {header + std::string("\x02\x02\x00\x40", 4), header + std::string("\x02\x02\x00\x40\x00\x00", 6), header};
-  const char* expected[] = {"truncated: Radiance scanline 1 of 32", "corrupt: Radiance scanline 1 has a run of length 0", "truncated"};
-  for (int i = 0; i < 3; ++i) {
+  // A header line that starts with a NUL byte ends the header for stb (it reads lines as C strings): the size line
+  // is the one after it, and the scanline's run-length data ends early (found by fuzz/fuzz_texture_image, a hang).
+  const std::string nul_line = std::string(
+      "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\0\0\n-Y 1 +X 64\n\x02\x02\x00\x40"
+      "1\n2#\n\n-Y 1 +X 1\n",
+      68);
+  const std::string cases[] = {header + std::string("\x02\x02\x00\x40", 4), header + std::string("\x02\x02\x00\x40\x00\x00", 6), header, nul_line};
+  const char* expected[] = {"truncated: Radiance scanline 1 of 32", "corrupt: Radiance scanline 1 has a run of length 0", "truncated",
+                            "truncated: Radiance scanline 1 of 1"};
+  for (int i = 0; i < 4; ++i) {
     test::write_text_file(dir / "sky.hdr", cases[i]);
     try {
       read_environment_image(dir / "sky.hdr");

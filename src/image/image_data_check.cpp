@@ -2,6 +2,7 @@
 // 2.27 reads them, and says what is missing. Each walk only counts bytes; none decodes pixels.
 #include "image/image_data_check.hpp"
 
+#include <cstdlib>
 #include <cstring>
 
 #include <fmt/format.h>
@@ -53,22 +54,43 @@ bool starts_with(std::span<const u8> bytes, const char* magic) {
 // Radiance RGBE: header lines up to an empty one, the resolution line "-Y H +X W", then H scanlines, each either W
 // flat four-byte pixels or (for 8 <= W < 32768, starting 2 2 W/256 W%256) four channels of run-length data. stb
 // takes a scanline that does not start so as the first of flat pixels to the end of the image.
+// The next line of a Radiance header as stb_image 2.27 reads it (stbi__hdr_gettoken): up to a newline, at most 1023
+// characters (the rest of a longer line skipped), and then a C string, so that a line starting with a NUL byte is
+// empty and ends the header. Read the same way here, or a header stb ends early would be taken for another.
+std::string radiance_token(ByteWalk& walk) {
+  std::string token;
+  unsigned c = walk.byte();
+  while (walk.has(1) && c != '\n') {
+    token += static_cast<char>(c);
+    if (token.size() == 1023) {
+      while (walk.has(1) && walk.byte() != '\n') {
+      }
+      break;
+    }
+    c = walk.byte();
+  }
+  return token.substr(0, token.find('\0'));
+}
+
 std::optional<std::string> radiance_problem(std::span<const u8> bytes) {
   ByteWalk walk(bytes);
-  // The header: lines until an empty one.
-  std::size_t line_start = 0;
+  // The header: its first line, then lines until an empty one.
+  radiance_token(walk);
   for (;;) {
     if (!walk.has(1)) return "truncated: the Radiance header has no end (an empty line)";
-    if (walk.byte() != '\n') continue;
-    if (walk.position() - line_start == 1) break;
-    line_start = walk.position();
+    if (radiance_token(walk).empty()) break;
   }
-  const std::size_t resolution_start = walk.position();
-  while (walk.has(1) && walk.byte() != '\n') {
-  }
-  unsigned long long height = 0, width = 0;
-  const std::string line(reinterpret_cast<const char*>(bytes.data()) + resolution_start, walk.position() - resolution_start);
-  if (std::sscanf(line.c_str(), "-Y %llu +X %llu", &height, &width) != 2) return std::nullopt;  // stb refuses it itself
+  // "-Y height +X width", read as stb reads it (strtol); a layout it does not take it refuses.
+  const std::string line = radiance_token(walk);
+  if (line.compare(0, 3, "-Y ") != 0) return std::nullopt;
+  // stb keeps strtol's long in an int: the same conversion here (modulo 2^32), so that both see the same size.
+  char* after = nullptr;
+  const int rows = static_cast<int>(std::strtol(line.c_str() + 3, &after, 10));
+  while (*after == ' ') ++after;
+  if (std::strncmp(after, "+X ", 3) != 0) return std::nullopt;
+  const int columns = static_cast<int>(std::strtol(after + 3, nullptr, 10));
+  if (rows <= 0 || columns <= 0 || rows > (1 << 24) || columns > (1 << 24)) return std::nullopt;  // stb refuses these itself
+  const u64 height = static_cast<u64>(rows), width = static_cast<u64>(columns);
   const u64 flat_bytes = u64{4} * width * height;
   for (u64 row = 0; row < height; ++row) {
     const bool run_length = width >= 8 && width < 32768 && walk.byte_at(walk.position()) == 2 && walk.byte_at(walk.position() + 1) == 2 &&
