@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <stb/stb_image_write.h>
 
@@ -76,22 +77,42 @@ std::string pgm16() {
   const std::vector<u8> pixels = texels(2);
   return "P5\n8 6\n65535\n" + std::string(pixels.begin(), pixels.end());
 }
-// Photoshop RGB, 8 bits, three channel planes, plain or as PackBits rows (each row one literal packet).
-std::string psd(bool run_length) {
+// Photoshop RGB, three channel planes or four with alpha, 8 bits (plain or as PackBits rows, each row one literal
+// packet) or 16 (plain). With alpha, the colours are composited over white, as stb_image takes them.
+std::vector<u8> psd_planes(int channels) {
+  std::vector<u8> planes = texels(channels);
+  if (channels < 4) return planes;
+  const std::size_t pixels = kWidth * kHeight;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const unsigned alpha = i % 4 == 0 ? 255 : i % 4 == 1 ? 0 : 1 + (planes[3 * pixels + i] % 254);
+    planes[3 * pixels + i] = static_cast<u8>(alpha);
+    for (std::size_t c = 0; c < 3; ++c) planes[c * pixels + i] = static_cast<u8>(255 - alpha + planes[c * pixels + i] * alpha / 255);
+  }
+  return planes;
+}
+std::string psd(bool run_length, int channels = 3, int depth = 8, const std::vector<u8>& planes = {}) {
   std::string bytes = "8BPS";
   const auto be16 = [&](unsigned v) { bytes += static_cast<char>(v >> 8), bytes += static_cast<char>(v & 255); };
   const auto be32 = [&](u32 v) { be16(v >> 16), be16(v & 0xffff); };
   be16(1);
   bytes.append(6, '\0');
-  be16(3), be32(kHeight), be32(kWidth), be16(8), be16(3);
+  be16(channels), be32(kHeight), be32(kWidth), be16(depth), be16(3);
   be32(0), be32(0), be32(0);  // colour mode data, image resources, layers
   be16(run_length ? 1 : 0);
-  const std::vector<u8> planes = texels(3);
-  if (!run_length) return bytes + std::string(planes.begin(), planes.end());
-  for (int row = 0; row < 3 * kHeight; ++row) be16(kWidth + 1);
-  for (int row = 0; row < 3 * kHeight; ++row) {
+  const std::vector<u8> samples = planes.empty() ? psd_planes(channels) : planes;
+  if (!run_length) {
+    for (const u8 sample : samples) {
+      if (depth == 16)
+        be16(sample * 257u);
+      else
+        bytes += static_cast<char>(sample);
+    }
+    return bytes;
+  }
+  for (int row = 0; row < channels * kHeight; ++row) be16(kWidth + 1);
+  for (int row = 0; row < channels * kHeight; ++row) {
     bytes += static_cast<char>(kWidth - 1);
-    bytes.append(reinterpret_cast<const char*>(planes.data()) + row * kWidth, kWidth);
+    bytes.append(reinterpret_cast<const char*>(samples.data()) + row * kWidth, kWidth);
   }
   return bytes;
 }
@@ -124,6 +145,9 @@ std::vector<Format> formats() {
   add("16.pgm", pgm16());
   add("psd", psd(false));
   add("rle.psd", psd(true));
+  add("alpha.psd", psd(false, 4));
+  add("alpha.rle.psd", psd(true, 4));
+  add("alpha.16.psd", psd(false, 4, 16));
   add("gif", gif(), 1);
   return all;
 }
@@ -242,6 +266,46 @@ TEST(TruncatedImages, EmptyPngDataChunksAreLeftOutBeforeDecoding) {
   ASSERT_TRUE(cut_kept.has_value());
   EXPECT_EQ(std::string(cut_kept->begin(), cut_kept->end()), whole.substr(0, 33));
   EXPECT_THROW(read_texture_image_from_memory(span_of(cut), "cut"), InputError);
+}
+
+// stb_image takes a PSD's colours as composited over white and removes the white (colour - 255 (1 - a)) / a; a
+// colour darker than that allows became a negative number converted to a byte (undefined behaviour, found by
+// fuzz/fuzz_texture_image). Such a file is refused naming the pixel; one composited over white reads, its colours
+// restored, in every layout stb reads.
+TEST(TruncatedImages, PsdColoursDarkerThanTheirWhiteMatteAreRefusedNamingThePixel) {
+  const std::vector<u8> planes = psd_planes(4), original = texels(4);
+  const std::size_t pixels = kWidth * kHeight;
+  for (const auto& [run_length, depth] : {std::pair{false, 8}, std::pair{true, 8}, std::pair{false, 16}}) {
+    SCOPED_TRACE(testing::Message() << run_length << " " << depth);
+    const TextureImage image = read_texture_image_from_memory(span_of(psd(run_length, 4, depth)), "matte.psd");
+    ASSERT_EQ(image.srgb.size(), 3 * pixels);
+    for (std::size_t i = 0; i < pixels; ++i) {
+      const unsigned alpha = planes[3 * pixels + i];
+      for (std::size_t c = 0; c < 3; ++c) {
+        // Where alpha is 0 the colour is white and stays so; elsewhere it comes back within the rounding of 8 bits.
+        if (alpha == 0) EXPECT_EQ(image.srgb[3 * i + c], 255) << i;
+        else EXPECT_NEAR(image.srgb[3 * i + c], original[c * pixels + i], 255.0 / alpha + 1) << i << " " << alpha;
+      }
+    }
+    // Pixel (3, 2), with alpha neither 0 nor 255, given a green one darker than its white matte allows.
+    std::vector<u8> dark = planes;
+    const std::size_t at = 2 * kWidth + 3;
+    ASSERT_EQ(at % 4, 3u);
+    const unsigned alpha = dark[3 * pixels + at];
+    dark[pixels + at] = static_cast<u8>(254 - alpha);
+    try {
+      read_texture_image_from_memory(span_of(psd(run_length, 4, depth, dark)), "dark.psd");
+      ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(fmt::format("cannot read image 'dark.psd': corrupt: the PSD's pixel (3, 2) has green {} under alpha {}",
+                                                       254 - alpha, alpha)),
+                std::string::npos)
+          << e.what();
+    }
+    // One step lighter is the darkest a composite over white gives: read.
+    dark[pixels + at] = static_cast<u8>(255 - alpha);
+    EXPECT_NO_THROW(read_texture_image_from_memory(span_of(psd(run_length, 4, depth, dark)), "dark.psd"));
+  }
 }
 
 // A PNG whose data chunk claims 2 GiB in a file of a few hundred bytes: stb_image grew its buffer to the claimed size

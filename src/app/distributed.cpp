@@ -60,12 +60,17 @@ void check(int code, const char* call) {
   throw BackendError(fmt::format("{} failed: {}", call, std::string(text, static_cast<std::size_t>(std::max(length, 0)))));
 }
 
-// A transfer that has not ended by its deadline (the other side died or stalls; MPI may never say so): thrown as a
-// BackendError, the request left behind, since the run then ends by MPI_Abort (Distributed::finish).
+// A transfer that has not ended by its deadline (the other side died or stalls; MPI may never say so): thrown as
+// TransferOverdue, the request left behind, since the run then ends by MPI_Abort (Distributed::finish). Its message
+// says what a stalled band says (RankWorker::exchange), so that one line names a stalled rank wherever it stopped.
 using Deadline = std::chrono::steady_clock::time_point;
 constexpr Deadline kNoDeadline = Deadline::max();
 
-void wait_for(MPI_Request& request, Deadline deadline) {
+struct TransferOverdue : BackendError {
+  using BackendError::BackendError;
+};
+
+void wait_for(MPI_Request& request, Deadline deadline, std::chrono::steady_clock::time_point started) {
   for (;;) {
     int done = 0;
     {
@@ -73,7 +78,10 @@ void wait_for(MPI_Request& request, Deadline deadline) {
       check(MPI_Test(&request, &done, MPI_STATUS_IGNORE), "MPI_Test");
     }
     if (done) return;
-    if (std::chrono::steady_clock::now() >= deadline) throw BackendError("a message to or from it did not get through");
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= deadline)
+      throw TransferOverdue(fmt::format("has not answered for {:.1f} s while a message to or from it was under way",
+                                        std::chrono::duration<double>(now - started).count()));
     std::this_thread::sleep_for(kTransferPoll);
   }
 }
@@ -103,6 +111,7 @@ constexpr std::size_t kPiece = std::size_t{1} << 30;
 
 template <class Byte, class Post>
 void transfer_in_pieces(Byte* data, std::size_t bytes, int peer, int tag, Post post, Deadline deadline) {
+  const auto started = std::chrono::steady_clock::now();
   do {
     const std::size_t piece = std::min(bytes, kPiece);
     MPI_Request request;
@@ -110,7 +119,7 @@ void transfer_in_pieces(Byte* data, std::size_t bytes, int peer, int tag, Post p
       const std::lock_guard lock(mpi_mutex);
       check(post(data, static_cast<int>(piece), MPI_BYTE, peer, tag, MPI_COMM_WORLD, &request), "sending or receiving a message");
     }
-    wait_for(request, deadline);
+    wait_for(request, deadline, started);
     data += piece;
     bytes -= piece;
   } while (bytes > 0);
@@ -179,6 +188,8 @@ class RankWorker final : public BandWorker {
       throw;
     } catch (const WorkerLost&) {
       throw;
+    } catch (const TransferOverdue& e) {  // stalled or dead while a band was on its way
+      lose(e.what());
     } catch (const std::exception& e) {  // an MPI call that failed: the rank is gone
       lose(fmt::format("is lost ({})", e.what()));
     }

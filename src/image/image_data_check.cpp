@@ -1,7 +1,9 @@
 // Walks the structure of the image formats stb_image reads past the end of (image_data_check.hpp), as stb_image
-// 2.27 reads them, and says what is missing. Each walk only counts bytes; none decodes pixels.
+// 2.27 reads them, and says what is missing. Each walk only counts bytes; only the PSD's decodes pixels, one at a
+// time, for the one value stb cannot take (psd_matte_problem).
 #include "image/image_data_check.hpp"
 
+#include <array>
 #include <cstdlib>
 #include <cstring>
 
@@ -212,6 +214,58 @@ std::optional<std::string> pnm_problem(std::span<const u8> bytes) {
   return needed <= bytes.size() ? std::nullopt : std::optional(short_by("the PNM's samples", needed, bytes.size()));
 }
 
+// One channel plane of a PSD as stb_image 2.27 decodes it into eight-bit samples: plain (the high byte of a 16-bit
+// sample) or PackBits, whose samples are always single bytes there. Reads one sample at a time, so that four planes
+// can be read side by side without holding any of them.
+class PsdPlane {
+ public:
+  PsdPlane(std::span<const u8> bytes, std::size_t start, bool run_length, u64 sample_bytes)
+      : bytes_(bytes), at_(start), run_length_(run_length), sample_bytes_(sample_bytes) {}
+  // The next sample; the caller has checked (psd_problem's walk) that the plane's data is all there.
+  unsigned next() {
+    if (!run_length_) {
+      const unsigned sample = at_ < bytes_.size() ? bytes_[at_] : 0u;
+      at_ += sample_bytes_;
+      return sample;
+    }
+    while (left_ == 0) {
+      const unsigned length = at_ < bytes_.size() ? bytes_[at_++] : 0u;
+      if (length == 128) continue;
+      literal_ = length < 128;
+      left_ = literal_ ? length + 1 : 257 - length;
+      if (!literal_) repeated_ = at_ < bytes_.size() ? bytes_[at_++] : 0u;
+    }
+    --left_;
+    if (!literal_) return repeated_;
+    return at_ < bytes_.size() ? bytes_[at_++] : 0u;
+  }
+
+ private:
+  std::span<const u8> bytes_;
+  std::size_t at_;
+  bool run_length_;
+  u64 sample_bytes_;
+  bool literal_ = false;
+  unsigned left_ = 0, repeated_ = 0;
+};
+
+// stb_image takes a PSD's fourth channel for alpha and its colours for colours composited over white, which it
+// removes: colour' = (colour - 255 (1 - a)) / a. A colour below 255 - alpha (darker than white behind that alpha
+// allows, which no composite over white is) becomes negative there, converted to a byte out of its range
+// (undefined behaviour; found by fuzz/fuzz_texture_image). In whole numbers, so that no rounding decides.
+std::optional<std::string> psd_matte_problem(std::array<PsdPlane, 4> planes, u64 width, u64 pixels) {
+  static constexpr const char* kColours[3] = {"red", "green", "blue"};
+  for (u64 i = 0; i < pixels; ++i) {
+    const unsigned colour[3] = {planes[0].next(), planes[1].next(), planes[2].next()}, alpha = planes[3].next();
+    if (alpha == 0 || alpha == 255) continue;
+    for (int c = 0; c < 3; ++c)
+      if (colour[c] + alpha < 255)
+        return fmt::format("corrupt: the PSD's pixel ({}, {}) has {} {} under alpha {}, darker than a colour composited over white can be",
+                           i % width, i / width, kColours[c], colour[c], alpha);
+  }
+  return std::nullopt;
+}
+
 // Photoshop: a 26-byte header, three sections of given lengths, then the first four channels' planes, plain or as
 // PackBits rows after a table of the rows' lengths.
 std::optional<std::string> psd_problem(std::span<const u8> bytes) {
@@ -230,26 +284,33 @@ std::optional<std::string> psd_problem(std::span<const u8> bytes) {
   const u64 compression = walk.be16(walk.position());
   walk.skip(2);
   const u64 pixels = width * height, read_channels = channels < 4 ? channels : 4;
+  if (compression > 1 || pixels == 0) return std::nullopt;  // stb refuses it itself
+  std::array<std::size_t, 4> starts{};  // where each channel's plane starts
   if (compression == 0) {
-    const u64 needed = walk.position() + read_channels * pixels * (depth / 8);
-    return needed <= bytes.size() ? std::nullopt : std::optional(short_by("the PSD's channels", needed, bytes.size()));
-  }
-  if (compression != 1) return std::nullopt;
-  if (!walk.skip(height * channels * 2)) return short_by("the PSD's row lengths", walk.position() + height * channels * 2, bytes.size());
-  for (u64 channel = 0; channel < read_channels; ++channel) {
-    for (u64 done = 0; done < pixels;) {
-      if (!walk.has(1))
-        return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
-      const unsigned length = walk.byte();
-      if (length == 128) continue;
-      const u64 count = length < 128 ? length + 1 : 257 - length;
-      if (count > pixels - done) return std::nullopt;  // stb refuses the run itself
-      if (!walk.skip(length < 128 ? count : 1))
-        return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
-      done += count;
+    const u64 plane_bytes = pixels * (depth / 8);
+    const u64 needed = walk.position() + read_channels * plane_bytes;
+    if (needed > bytes.size()) return short_by("the PSD's channels", needed, bytes.size());
+    for (u64 channel = 0; channel < read_channels; ++channel) starts[channel] = static_cast<std::size_t>(walk.position() + channel * plane_bytes);
+  } else {
+    if (!walk.skip(height * channels * 2)) return short_by("the PSD's row lengths", walk.position() + height * channels * 2, bytes.size());
+    for (u64 channel = 0; channel < read_channels; ++channel) {
+      starts[channel] = walk.position();
+      for (u64 done = 0; done < pixels;) {
+        if (!walk.has(1))
+          return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
+        const unsigned length = walk.byte();
+        if (length == 128) continue;
+        const u64 count = length < 128 ? length + 1 : 257 - length;
+        if (count > pixels - done) return std::nullopt;  // stb refuses the run itself
+        if (!walk.skip(length < 128 ? count : 1))
+          return fmt::format("truncated: the PSD's channel {} ends at byte {} after {} of {} samples", channel, bytes.size(), done, pixels);
+        done += count;
+      }
     }
   }
-  return std::nullopt;
+  if (channels < 4) return std::nullopt;
+  const auto plane = [&](int channel) { return PsdPlane(bytes, starts[channel], compression == 1, depth / 8); };
+  return psd_matte_problem({plane(0), plane(1), plane(2), plane(3)}, width, pixels);
 }
 
 // GIF: a header, a screen descriptor and colour table, then blocks up to the first image's data, which ends with an
