@@ -283,8 +283,10 @@ TEST(TruncatedImages, PsdColoursDarkerThanTheirWhiteMatteAreRefusedNamingThePixe
       const unsigned alpha = planes[3 * pixels + i];
       for (std::size_t c = 0; c < 3; ++c) {
         // Where alpha is 0 the colour is white and stays so; elsewhere it comes back within the rounding of 8 bits.
-        if (alpha == 0) EXPECT_EQ(image.srgb[3 * i + c], 255) << i;
-        else EXPECT_NEAR(image.srgb[3 * i + c], original[c * pixels + i], 255.0 / alpha + 1) << i << " " << alpha;
+        if (alpha == 0)
+          EXPECT_EQ(image.srgb[3 * i + c], 255) << i;
+        else
+          EXPECT_NEAR(image.srgb[3 * i + c], original[c * pixels + i], 255.0 / alpha + 1) << i << " " << alpha;
       }
     }
     // Pixel (3, 2), with alpha neither 0 nor 255, given a green one darker than its white matte allows.
@@ -297,8 +299,8 @@ TEST(TruncatedImages, PsdColoursDarkerThanTheirWhiteMatteAreRefusedNamingThePixe
       read_texture_image_from_memory(span_of(psd(run_length, 4, depth, dark)), "dark.psd");
       ADD_FAILURE() << "accepted";
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find(fmt::format("cannot read image 'dark.psd': corrupt: the PSD's pixel (3, 2) has green {} under alpha {}",
-                                                       254 - alpha, alpha)),
+      EXPECT_NE(std::string(e.what()).find(
+                    fmt::format("cannot read image 'dark.psd': corrupt: the PSD's pixel (3, 2) has green {} under alpha {}", 254 - alpha, alpha)),
                 std::string::npos)
           << e.what();
     }

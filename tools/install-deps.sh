@@ -7,7 +7,7 @@
 set -euo pipefail
 packages=(cmake ninja-build g++ libtbb-dev libfmt-dev libcli11-dev nlohmann-json3-dev libstb-dev libopenexr-dev zlib1g-dev
           libgtest-dev libbenchmark-dev libtinyobjloader-dev libtinygltf-dev assimp-testmodels libopenmpi-dev openmpi-bin
-          python3 verilator)
+          python3 python3-dev python3-numpy python3-pytest pybind11-dev verilator)
 for extra in "$@"; do
   case "$extra" in
     fuzz) packages+=(clang-16 libclang-rt-16-dev) ;;

@@ -24,8 +24,8 @@
 #include <CLI/CLI.hpp>
 
 #include "app/distributed.hpp"
-#include "app/image_size.hpp"
 #include "app/numerics.hpp"
+#include "app/render_overrides.hpp"
 #include "backends/multi_backend.hpp"
 #include "backends/registry.hpp"
 #include "base/atomic_file.hpp"
@@ -103,24 +103,10 @@ void draw_progress(const Progress& p) {
 }
 
 RenderSettings effective_settings(const RenderOptions& options, const SceneDescription& scene) {
-  RenderSettings settings = scene.render;
-  if (options.width) settings.width = *options.width;
-  if (options.height) settings.height = *options.height;
-  if (options.spp) settings.samples_per_pixel = *options.spp;
-  if (options.depth) settings.max_depth = *options.depth;
-  if (options.seed) settings.seed = *options.seed;
-  if (options.light_sampling) settings.light_sampling = *options.light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
-  if (options.sampler) settings.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
-  // The scene's own size was checked when it was read, so a size too large here comes from the command line.
-  if (options.width && options.height)
-    check_image_size(settings.width, settings.height, fmt::format("--width {} --height {}", settings.width, settings.height));
-  else if (options.width)
-    check_image_size(settings.width, settings.height,
-                     fmt::format("--width {} with the scene's height {} ({})", settings.width, settings.height, scene.source));
-  else if (options.height)
-    check_image_size(settings.width, settings.height,
-                     fmt::format("--height {} with the scene's width {} ({})", settings.height, settings.width, scene.source));
-  return settings;
+  RenderOverrides overrides{options.width, options.height, options.spp, options.depth, options.seed, {}, {}};
+  if (options.light_sampling) overrides.light_sampling = *options.light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+  if (options.sampler) overrides.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
+  return apply_overrides(scene, overrides, kCommandLineSpelling);
 }
 
 // SIGINT or SIGTERM: the first asks the render to stop after the pass under way (or to give it up, under MPI) and

@@ -16,6 +16,14 @@
 
 namespace pt {
 
+// A device a backend renders on (`index` >= 0: the number --device or --sycl-device takes), or a word about a backend
+// that has none here (`index` -1: not built, no driver, no GPU). `pathtracer devices` prints them, one a line.
+struct DeviceDescription {
+  std::string backend;
+  int index = -1;
+  std::string name;
+};
+
 template <class T>
 class RenderBackend {
  public:

@@ -147,18 +147,25 @@ std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend
                                                                                         int, std::vector<std::unique_ptr<BandWorker>>);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKEND)
 
-void list_devices() {
-  fmt::print("cpu: {} hardware threads\n", tbb::this_task_arena::max_concurrency());
+std::vector<DeviceDescription> describe_devices() {
+  std::vector<DeviceDescription> devices{{"cpu", 0, fmt::format("{} hardware threads", tbb::this_task_arena::max_concurrency())}};
 #if PT_HAVE_CUDA
-  list_cuda_devices();
+  for (DeviceDescription& d : cuda_devices()) devices.push_back(std::move(d));
 #else
-  fmt::print("cuda: not built\n");
+  devices.push_back({"cuda", -1, "not built"});
 #endif
 #if PT_HAVE_SYCL
-  list_sycl_devices();
+  for (DeviceDescription& d : sycl_devices()) devices.push_back(std::move(d));
 #else
-  fmt::print("sycl: not built\n");
+  devices.push_back({"sycl", -1, "not built"});
 #endif
+  return devices;
+}
+
+void list_devices() {
+  // The host's processor is one device of its backend: no index is printed for it.
+  for (const DeviceDescription& d : describe_devices())
+    fmt::print("{}{}: {}\n", d.backend, d.index >= 0 && d.backend != "cpu" ? fmt::format(" {}", d.index) : "", d.name);
 }
 
 }  // namespace pt

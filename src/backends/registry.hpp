@@ -40,7 +40,11 @@ template <class T>
 std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads, Integrator integrator,
                                                       int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote = {});
 
-// Prints every backend's devices to stdout.
+// Every backend's devices, the host's processor first (backend "cpu", index 0), and a word for each backend built
+// without devices here or not built.
+std::vector<DeviceDescription> describe_devices();
+
+// Prints describe_devices() to stdout, one a line (`pathtracer devices`).
 void list_devices();
 
 }  // namespace pt

@@ -260,8 +260,8 @@ std::optional<std::string> psd_matte_problem(std::array<PsdPlane, 4> planes, u64
     if (alpha == 0 || alpha == 255) continue;
     for (int c = 0; c < 3; ++c)
       if (colour[c] + alpha < 255)
-        return fmt::format("corrupt: the PSD's pixel ({}, {}) has {} {} under alpha {}, darker than a colour composited over white can be",
-                           i % width, i / width, kColours[c], colour[c], alpha);
+        return fmt::format("corrupt: the PSD's pixel ({}, {}) has {} {} under alpha {}, darker than a colour composited over white can be", i % width,
+                           i / width, kColours[c], colour[c], alpha);
   }
   return std::nullopt;
 }
@@ -285,7 +285,7 @@ std::optional<std::string> psd_problem(std::span<const u8> bytes) {
   walk.skip(2);
   const u64 pixels = width * height, read_channels = channels < 4 ? channels : 4;
   if (compression > 1 || pixels == 0) return std::nullopt;  // stb refuses it itself
-  std::array<std::size_t, 4> starts{};  // where each channel's plane starts
+  std::array<std::size_t, 4> starts{};                      // where each channel's plane starts
   if (compression == 0) {
     const u64 plane_bytes = pixels * (depth / 8);
     const u64 needed = walk.position() + read_channels * plane_bytes;

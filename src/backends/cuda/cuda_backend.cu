@@ -169,20 +169,21 @@ int cuda_device_count() {
   return count;
 }
 
-void list_cuda_devices() {
+std::vector<DeviceDescription> cuda_devices() {
   int count = 0;
   const cudaError_t status = cudaGetDeviceCount(&count);
-  if (status != cudaSuccess) {
-    std::printf("cuda: no usable GPU (%s)\n", cudaGetErrorString(status));
-    return;
-  }
-  if (count == 0) std::printf("cuda: no GPU\n");
+  if (status != cudaSuccess) return {{"cuda", -1, std::string("no usable GPU (") + cudaGetErrorString(status) + ")"}};
+  if (count == 0) return {{"cuda", -1, "no GPU"}};
+  std::vector<DeviceDescription> devices;
   for (int i = 0; i < count; ++i) {
     cudaDeviceProp p{};
     if (cudaGetDeviceProperties(&p, i) != cudaSuccess) continue;
-    std::printf("cuda %d: %s (compute capability %d.%d, %d SMs, %.1f GiB)\n", i, p.name, p.major, p.minor, p.multiProcessorCount,
-                p.totalGlobalMem / 1073741824.0);
+    char text[512];
+    std::snprintf(text, sizeof text, "%s (compute capability %d.%d, %d SMs, %.1f GiB)", p.name, p.major, p.minor, p.multiProcessorCount,
+                  p.totalGlobalMem / 1073741824.0);
+    devices.push_back({"cuda", i, text});
   }
+  return devices;
 }
 
 }  // namespace pt

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "backends/backend.hpp"
 
@@ -14,7 +15,7 @@ std::unique_ptr<RenderBackend<T>> make_cuda_backend(int device, Integrator integ
 // Number of usable CUDA devices (0 when the driver is missing or unusable).
 int cuda_device_count();
 
-// Prints the CUDA devices to stdout.
-void list_cuda_devices();
+// The CUDA devices, or why there are none.
+std::vector<DeviceDescription> cuda_devices();
 
 }  // namespace pt

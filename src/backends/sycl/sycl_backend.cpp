@@ -266,16 +266,17 @@ std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device, Integrator integ
 #define PT_INSTANTIATE_SYCL_BACKEND(...) template std::unique_ptr<RenderBackend<__VA_ARGS__>> make_sycl_backend<__VA_ARGS__>(int, Integrator);
 PT_FOR_EACH_FLOATING_TYPE(PT_INSTANTIATE_SYCL_BACKEND)
 
-void list_sycl_devices() {
+std::vector<DeviceDescription> sycl_devices() {
   std::vector<sycl::device> devices;
   try {
     devices = sycl::device::get_devices();
   } catch (const sycl::exception& e) {
-    fmt::print("sycl: no usable device ({})\n", one_line(e.what()));
-    return;
+    return {{"sycl", -1, fmt::format("no usable device ({})", one_line(e.what()))}};
   }
-  if (devices.empty()) fmt::print("sycl: no device\n");
-  for (std::size_t i = 0; i < devices.size(); ++i) fmt::print("sycl {}: {}\n", i, describe(devices[i]));
+  if (devices.empty()) return {{"sycl", -1, "no device"}};
+  std::vector<DeviceDescription> described;
+  for (std::size_t i = 0; i < devices.size(); ++i) described.push_back({"sycl", static_cast<int>(i), describe(devices[i])});
+  return described;
 }
 
 }  // namespace pt

@@ -3,17 +3,18 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "backends/backend.hpp"
 
 namespace pt {
 
-// `device` indexes sycl::device::get_devices() (as listed by list_sycl_devices); a negative index lets the
+// `device` indexes sycl::device::get_devices() (as sycl_devices lists them); a negative index lets the
 // runtime's default selector choose. Throws BackendError when the device is missing or unusable.
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_sycl_backend(int device, Integrator integrator = Integrator::kMegakernel);
 
-// Prints the SYCL devices, one a line with its index, to stdout.
-void list_sycl_devices();
+// The SYCL devices, by the index --sycl-device takes, or why there are none.
+std::vector<DeviceDescription> sycl_devices();
 
 }  // namespace pt
