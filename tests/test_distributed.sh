@@ -14,6 +14,16 @@ mpi() { local ranks=$1; shift; "$mpiexec" -np "$ranks" --oversubscribe "$@"; }
 # 37 rows: bands of uneven height for any number of devices or ranks.
 size=(--width 48 --height 37 --spp 6 -q)
 
+# The processes of rank RANK of this case's MPI job: found by their rank and their working folder, so that the job
+# of another case running at the same time (CTest runs tests side by side) is never taken for this one's.
+rank_pids() {
+  local pid
+  for pid in $(pgrep -f "$pathtracer render"); do
+    [ "$(readlink "/proc/$pid/cwd" 2>/dev/null)" = "$work" ] || continue
+    if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "OMPI_COMM_WORLD_RANK=$1"; then echo "$pid"; fi
+  done
+}
+
 same() {  # same IMAGE_A IMAGE_B WHAT
   if ! cmp -s "$1" "$2"; then echo "FAIL: $3: $2 differs from $1"; exit 1; fi
   echo "ok: $3"
@@ -98,10 +108,7 @@ case "$case" in
       launcher=$!
       # After the first pass (the checkpoint is saved after each), so that the bands' costs are known.
       for _ in $(seq 600); do [ -e film.ckpt ] && break; sleep 0.1; done
-      ranks=()
-      for pid in $(pgrep -f "$pathtracer render"); do
-        if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1; then ranks+=("$pid"); fi
-      done
+      mapfile -t ranks < <(rank_pids 1)
       [ ${#ranks[@]} -eq 1 ] || { echo "FAIL: rank 1 not found"; kill -KILL $launcher; exit 1; }
       kill -$fault "${ranks[0]}"
       status=0
@@ -120,9 +127,7 @@ case "$case" in
       -o lost.pfm 2>err.txt &
     launcher=$!
     for _ in $(seq 600); do [ -e film.ckpt ] && break; sleep 0.1; done
-    for pid in $(pgrep -f "$pathtracer render"); do
-      if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1; then kill -KILL "$pid"; fi
-    done
+    for pid in $(rank_pids 1); do kill -KILL "$pid"; done
     wait $launcher || true
     grep -q "stopped by SIGTERM after .* of 300 samples per pixel; film saved to film.ckpt" err.txt ||
       { cat err.txt; echo "FAIL: rank 0 did not save what it had when mpirun ended the job"; exit 1; }
