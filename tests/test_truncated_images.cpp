@@ -310,6 +310,34 @@ TEST(TruncatedImages, PsdColoursDarkerThanTheirWhiteMatteAreRefusedNamingThePixe
   }
 }
 
+// stb_image 2.27 never clears its Huffman and quantisation tables: a scan using one that no segment defined decoded
+// with uninitialised memory, its codes indexing past the table's 256 values (found by fuzz/fuzz_texture_image, a
+// baseline JPEG with no DQT segment and no AC tables). Refused, naming the table; the file as written reads.
+TEST(TruncatedImages, JpegScanUsingATableNeverDefinedIsRefused) {
+  const std::string whole = jpeg();
+  ASSERT_NO_THROW(read_texture_image_from_memory(span_of(whole), "whole.jpg"));
+  const std::size_t scan = whole.find("\xFF\xDA"), frame = whole.find("\xFF\xC0");
+  ASSERT_NE(scan, std::string::npos);
+  ASSERT_NE(frame, std::string::npos);
+  // The scan's first component given AC table 2, and DC table 3; the frame's first component quantisation table 2.
+  std::string ac = whole, dc = whole, quantisation = whole;
+  ac[scan + 6] = '\x02';
+  dc[scan + 6] = '\x30';
+  quantisation[frame + 12] = '\x02';
+  const std::pair<std::string, std::string> cases[] = {
+      {ac, fmt::format("corrupt: the JPEG's scan at byte {} uses AC Huffman table 2, which no DHT segment before it defines", scan)},
+      {dc, fmt::format("corrupt: the JPEG's scan at byte {} uses DC Huffman table 3, which no DHT segment before it defines", scan)},
+      {quantisation, fmt::format("corrupt: the JPEG's scan at byte {} uses quantisation table 2, which no DQT segment before it defines", scan)}};
+  for (const auto& [bytes, expected] : cases) {
+    try {
+      read_texture_image_from_memory(span_of(bytes), "tables.jpg");
+      ADD_FAILURE() << "accepted: " << expected;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("cannot read image 'tables.jpg': " + expected), std::string::npos) << e.what();
+    }
+  }
+}
+
 // A PNG whose data chunk claims 2 GiB in a file of a few hundred bytes: stb_image grew its buffer to the claimed size
 // before reading (found by fuzz/fuzz_texture_image as an allocation of 2 GiB). Refused from the chunk's length.
 TEST(TruncatedImages, PngChunkRunningPastTheEndIsRefusedBeforeStbAllocatesForIt) {

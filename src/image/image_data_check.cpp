@@ -346,29 +346,84 @@ std::optional<std::string> gif_problem(std::span<const u8> bytes) {
   }
 }
 
-// JPEG: segments (a marker, then a big-endian length that counts itself) up to the first scan, whose entropy-coded
-// data, and that of any later scans, ends with the end-of-image marker FF D9. That marker cannot occur inside the
-// data (a data byte FF is followed by 00), so a file cut short has none after its first scan. The segments are
-// walked, not searched, since an Exif segment may hold a whole thumbnail JPEG, end-of-image marker included.
+// JPEG: segments (a marker, then a big-endian length that counts itself) up to each scan, the scan's entropy-coded
+// data up to the next marker (a data byte FF is followed by 00, or is a restart marker), and so on to the
+// end-of-image marker FF D9, which stb needs: a file cut short has none. The segments are walked, not searched,
+// since an Exif segment may hold a whole thumbnail JPEG, end-of-image marker included. stb_image 2.27 keeps its
+// Huffman and quantisation tables in memory it never clears, so a scan that uses a table no segment before it
+// defined decodes with uninitialised memory (its Huffman codes then index past the table's 256 values; found by
+// fuzz/fuzz_texture_image): such a scan is refused.
 std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
   ByteWalk walk(bytes);
   walk.seek(2);
+  bool dc_table[4] = {}, ac_table[4] = {}, quantisation_table[4] = {};
+  struct FrameComponent {
+    unsigned id, table;
+  };
+  std::vector<FrameComponent> frame;
+  bool progressive = false, scanned = false;
   for (;;) {
-    if (!walk.has(2)) return fmt::format("truncated: the JPEG ends at byte {} before its image data", bytes.size());
+    if (!walk.has(2))
+      return fmt::format("truncated: the JPEG ends at byte {} {}", bytes.size(),
+                         scanned ? "without its end-of-image marker" : "before its image data");
     if (walk.byte() != 0xFF) return std::nullopt;  // not a marker: stb refuses it itself
     unsigned marker = walk.byte();
     while (marker == 0xFF && walk.has(1)) marker = walk.byte();          // fill bytes
     if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // markers without a segment
-    if (marker == 0xD9) return std::nullopt;                             // an image without a scan: stb refuses it
+    if (marker == 0xD9) return std::nullopt;                             // the end (stb refuses an image without a scan)
     if (!walk.has(2)) return fmt::format("truncated: the JPEG ends at byte {} inside a segment's length", bytes.size());
-    const u64 length = walk.be16(walk.position());
+    const std::size_t segment = walk.position();
+    const u64 length = walk.be16(segment);
     if (length < 2) return std::nullopt;
     if (!walk.skip(length)) return fmt::format("truncated: the JPEG ends at byte {} inside a segment of {} bytes", bytes.size(), length);
-    if (marker == 0xDA) break;
+    const std::size_t end = segment + static_cast<std::size_t>(length);
+    if (marker == 0xDB) {  // quantisation tables: a precision and number byte, then 64 values of 1 or 2 bytes
+      for (std::size_t at = segment + 2; at < end;) {
+        const unsigned precision = walk.byte_at(at) >> 4, table = walk.byte_at(at) & 15;
+        if (table > 3) return std::nullopt;  // stb refuses it
+        quantisation_table[table] = true;
+        at += 1 + (precision ? 128 : 64);
+      }
+    } else if (marker == 0xC4) {  // Huffman tables: a class and number byte, 16 counts, the values
+      for (std::size_t at = segment + 2; at < end;) {
+        const unsigned table_class = walk.byte_at(at) >> 4, table = walk.byte_at(at) & 15;
+        if (table_class > 1 || table > 3) return std::nullopt;  // stb refuses it
+        (table_class == 0 ? dc_table : ac_table)[table] = true;
+        std::size_t codes = 0;
+        for (std::size_t i = 0; i < 16; ++i) codes += walk.byte_at(at + 1 + i);
+        at += 17 + codes;
+      }
+    } else if (marker == 0xC0 || marker == 0xC1 || marker == 0xC2) {  // the frame: its components' quantisation tables
+      progressive = marker == 0xC2;
+      frame.clear();
+      const unsigned components = walk.byte_at(segment + 7);
+      for (unsigned c = 0; c < components; ++c) frame.push_back({walk.byte_at(segment + 8 + 3 * c), walk.byte_at(segment + 10 + 3 * c)});
+    } else if (marker == 0xDA) {  // a scan: its components, their Huffman tables, the spectral selection
+      scanned = true;
+      const unsigned components = walk.byte_at(segment + 2);
+      const unsigned spectral_start = walk.byte_at(segment + 3 + 2 * components), high_bit = walk.byte_at(segment + 5 + 2 * components) >> 4;
+      for (unsigned c = 0; c < components; ++c) {
+        const unsigned id = walk.byte_at(segment + 3 + 2 * c), tables = walk.byte_at(segment + 4 + 2 * c);
+        const unsigned dc = tables >> 4, ac = tables & 15;
+        if (dc > 3 || ac > 3) return std::nullopt;  // stb refuses it
+        // Baseline scans decode both tables; a progressive scan its DC table in a first DC scan, its AC one otherwise.
+        const bool needs_dc = !progressive || (spectral_start == 0 && high_bit == 0), needs_ac = !progressive || spectral_start != 0;
+        const auto undefined = [&](const char* kind, unsigned table, const char* segment_kind) {
+          return fmt::format("corrupt: the JPEG's scan at byte {} uses {} table {}, which no {} segment before it defines", segment - 2, kind, table,
+                             segment_kind);
+        };
+        if (needs_dc && !dc_table[dc]) return undefined("DC Huffman", dc, "DHT");
+        if (needs_ac && !ac_table[ac]) return undefined("AC Huffman", ac, "DHT");
+        for (const FrameComponent& f : frame)
+          if (f.id == id && (f.table > 3 || !quantisation_table[f.table])) return undefined("quantisation", f.table, "DQT");
+      }
+      // The entropy-coded data runs to the next marker: 0xFF followed by neither 0 (a stuffed 0xFF) nor a restart.
+      std::size_t at = end;
+      while (at + 1 < bytes.size() && !(bytes[at] == 0xFF && bytes[at + 1] != 0 && !(bytes[at + 1] >= 0xD0 && bytes[at + 1] <= 0xD7))) ++at;
+      if (at + 1 >= bytes.size()) return fmt::format("truncated: the JPEG ends at byte {} without its end-of-image marker", bytes.size());
+      walk.seek(at);
+    }
   }
-  for (std::size_t i = walk.position(); i + 1 < bytes.size(); ++i)
-    if (bytes[i] == 0xFF && bytes[i + 1] == 0xD9) return std::nullopt;
-  return fmt::format("truncated: the JPEG ends at byte {} without its end-of-image marker", bytes.size());
 }
 
 // PNG: chunks of a 4-byte length, a 4-byte type, the data and a 4-byte CRC, up to IEND. stb_image grows its buffer
