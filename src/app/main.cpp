@@ -33,6 +33,7 @@
 #include "base/number_formats.hpp"
 #include "film/checkpoint.hpp"
 #include "film/film.hpp"
+#include "film/layers.hpp"
 #include "loading/scene_loader.hpp"
 
 #ifndef PT_VERSION
@@ -63,6 +64,7 @@ struct RenderOptions {
   bool quiet = false;
   bool verbose = false;            // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
+  std::string layers;              // render only: render layers written beside the image (film/layers.hpp)
   double checkpoint_interval = 60;
   double time_limit = 0;
   u32 runs = 5;                    // bench only
@@ -284,7 +286,14 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
   phases.add("render", film.stats.seconds);
   if (const std::optional<double> on_device = backend->device_seconds()) phases.add("  of which on the device", *on_device);
   phases.add("read-back", film.stats.read_back_seconds);
-  phases.time("resolve, encode and write", [&] { write_image(options.output, film_rows(film)); });
+  ImageRows rows = film_rows(film);
+  RenderLayers layers;
+  if (!options.layers.empty()) {
+    layers = phases.time("layers",
+                         [&] { return render_layers(*backend, flat, film, parse_layer_list(options.layers, "--layers " + clip(options.layers))); });
+    rows.channels = layers.image_channels();
+  }
+  phases.time("resolve, encode and write", [&] { write_image(options.output, rows); });
   if (!options.quiet) {
     const RenderStats& s = film.stats;
     fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
@@ -315,7 +324,13 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
 
 int run_render(const RenderOptions& options, Clock::time_point program_start, Distributed* mpi = nullptr) {
   // Fail on an unusable output name or place before spending time on the render.
-  image_format_for(options.output);
+  const ImageFormat format = image_format_for(options.output);
+  if (!options.layers.empty()) {
+    parse_layer_list(options.layers, "--layers " + clip(options.layers));
+    if (format != ImageFormat::kExr)
+      throw InputError(
+          fmt::format("--layers {}: only OpenEXR holds render layers, and {} is not an .exr file", clip(options.layers), options.output));
+  }
   check_output_path(options.output);
   if (!options.checkpoint.empty()) check_output_path(options.checkpoint);
   if (!options.checkpoint.empty() && same_file(options.output, options.checkpoint))
@@ -550,6 +565,8 @@ int main(int argc, char** argv) {
   render->add_option("--checkpoint-interval", options.checkpoint_interval, "Seconds between saves of the film")
       ->check(seconds)
       ->capture_default_str();
+  render->add_option("--layers", options.layers,
+                     "Render layers written as channels of the OpenEXR image: albedo, normal, depth, samples (comma-separated), or all");
   render->add_option("--resume", options.resume, "Go on from a film saved by --checkpoint (same scene and settings; --spp may be raised)");
   bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
 

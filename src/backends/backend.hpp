@@ -13,6 +13,7 @@
 #include "base/errors.hpp"
 #include "flat/flat_scene.hpp"
 #include "integrators/integrator_choice.hpp"
+#include "kernel/layers.hpp"
 
 namespace pt {
 
@@ -60,6 +61,12 @@ class RenderBackend {
   // sums as render() gives it. The backend's own film is scratch here: render() and this are not mixed after one
   // upload.
   virtual void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) = 0;
+
+  // Adds the render layers (kernel/layers.hpp: albedo, normal and distance of what each camera sample meets first)
+  // of samples [first_sample, first_sample + sample_count) of every pixel to `layers`, held by the caller
+  // (row-major, the whole image), after upload; the film is left as it was. The sums do not depend on how the
+  // samples are split into calls, nor on the device.
+  virtual void render_layers(u32 first_sample, u32 sample_count, std::span<LayerPixel> layers) = 0;
 
   // Copies the film to the host (row-major, rows from the top).
   virtual void read_film(std::vector<FilmPixel>& pixels) = 0;

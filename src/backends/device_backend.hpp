@@ -75,6 +75,25 @@ class DeviceBackend final : public RenderBackend<T> {
     device_.copy_to_host(band.data(), on_device, bytes, "reading a band of the film back");
   }
 
+  void render_layers(u32 first_sample, u32 sample_count, std::span<LayerPixel> layers) override {
+    const u32 width = view_.params.width, height = view_.params.height;
+    if (layers.size() != static_cast<std::size_t>(width) * height) throw BackendError("layers of another size than the image");
+    // Host memory: the kernel adds to the caller's sums where they are; elsewhere they go to the device and back.
+    const std::size_t bytes = layers.size() * sizeof(LayerPixel);
+    DeviceAllocations<D> scratch(device_);
+    LayerPixel* on_device = layers.data();
+    if (!device_.memory_on_host()) {
+      on_device = static_cast<LayerPixel*>(scratch.allocate(bytes, "allocating the layers"));
+      device_.copy_to_device(on_device, layers.data(), bytes, "copying the layers");
+    }
+    for (u32 s = first_sample; s < first_sample + sample_count; ++s)
+      device_.launch_image("rendering the layers", width, height, LayersSample<T>{view_, on_device, s});
+    if (device_.memory_on_host())
+      device_.synchronise("rendering the layers");
+    else
+      device_.copy_to_host(layers.data(), on_device, bytes, "reading the layers back");
+  }
+
   void write_film(std::span<const FilmPixel> pixels) override {
     if (pixels.size() != film_pixels_) throw BackendError("a film of another size cannot be resumed");
     device_.copy_to_device(film_, pixels.data(), film_pixels_ * sizeof(FilmPixel), "restoring the film");

@@ -30,6 +30,11 @@ class MultiBackend final : public RenderBackend<T> {
   bool render_unless(u32 first_sample, u32 sample_count, const std::function<bool()>& stop) override;
   double pass_seconds() const override;
   void render_rows(u32 first_row, u32 row_count, u32 first_sample, u32 sample_count, std::span<FilmPixel> band) override;
+  // By the first device alone: the layers pass is one camera ray a sample, far cheaper than the image's.
+  void render_layers(u32 first_sample, u32 sample_count, std::span<LayerPixel> layers) override {
+    if (devices_.empty()) throw BackendError("no device of this process to render the layers on");
+    devices_.front()->render_layers(first_sample, sample_count, layers);
+  }
   void read_film(std::vector<FilmPixel>& pixels) override;
   void write_film(std::span<const FilmPixel> pixels) override;
   std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) override;

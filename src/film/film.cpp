@@ -39,8 +39,10 @@ LinearImage resolve_film(std::span<const FilmPixel> film, u32 width, u32 height)
 }
 
 ImageRows film_rows(const RenderedFilm& film) {
-  return ImageRows{film.width, film.height,
-                   [&film](u32 first_row, u32 row_count, float* rgb) { resolve_rows(film.pixels(), film.width, first_row, row_count, rgb); }};
+  return ImageRows{film.width,
+                   film.height,
+                   [&film](u32 first_row, u32 row_count, float* rgb) { resolve_rows(film.pixels(), film.width, first_row, row_count, rgb); },
+                   {}};
 }
 
 RenderStats film_stats(std::span<const FilmPixel> film, u32 samples_per_pixel) {

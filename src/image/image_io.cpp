@@ -407,10 +407,13 @@ ImageFormat image_format_for(const std::filesystem::path& path) {
 }
 
 ImageRows rows_of(const LinearImage& image) {
-  return ImageRows{image.width, image.height, [&image](u32 first_row, u32 row_count, float* rgb) {
+  return ImageRows{image.width,
+                   image.height,
+                   [&image](u32 first_row, u32 row_count, float* rgb) {
                      const std::size_t row_floats = 3 * static_cast<std::size_t>(image.width);
                      std::copy_n(image.rgb.data() + first_row * row_floats, row_count * row_floats, rgb);
-                   }};
+                   },
+                   {}};
 }
 
 namespace {
@@ -556,6 +559,7 @@ class ExrStream final : public Imf::OStream {
 void write_exr(AtomicFile& file, const ImageRows& image) {
   Imf::Header header(static_cast<int>(image.width), static_cast<int>(image.height));
   for (const char* channel : {"R", "G", "B"}) header.channels().insert(channel, Imf::Channel(Imf::FLOAT));
+  for (const ImageChannel& channel : image.channels) header.channels().insert(channel.name, Imf::Channel(Imf::FLOAT));
   ExrStream stream(file);
   // The file's line-offset table is written when `out` is destroyed, where OpenEXR swallows errors: a failure
   // there is still recorded by the AtomicFile, which then refuses to publish.
@@ -572,6 +576,10 @@ void write_exr(AtomicFile& file, const ImageRows& image) {
     frame.insert("R", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(base), x_stride, y_stride));
     frame.insert("G", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(base + sizeof(float)), x_stride, y_stride));
     frame.insert("B", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(base + 2 * sizeof(float)), x_stride, y_stride));
+    // Other channels are whole planes in memory: addressed from their own row 0.
+    for (const ImageChannel& channel : image.channels)
+      frame.insert(channel.name, Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(channel.values)), sizeof(float),
+                                            sizeof(float) * image.width));
     out.setFrameBuffer(frame);
     out.writePixels(static_cast<int>(rows));
   }
@@ -603,6 +611,8 @@ void check_output_path(const std::filesystem::path& named) {
 AtomicFile write_image_unpublished(const std::filesystem::path& path, const ImageRows& image) {
   const ImageFormat format = image_format_for(path);
   check_output_path(path);  // again: the folder may have changed while the image was rendered
+  if (!image.channels.empty() && format != ImageFormat::kExr)
+    throw InputError(fmt::format("{}: cannot write the image: only OpenEXR (.exr) holds render layers", path.string()));
   AtomicFile file(path, "the image");
   try {
     switch (format) {

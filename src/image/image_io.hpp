@@ -22,9 +22,16 @@ struct LinearImage {
 // [first_row, first_row + row_count) into `rgb` as linear RGB, three floats per pixel. A render's film is written
 // this way, converted band by band, so that no full-size float copy of it is ever made. fill may be called from
 // several threads at once, for different rows.
+// Channels written beside R, G and B where the format holds more (OpenEXR: render layers, named "albedo.R" and so
+// on): `values` is one float a pixel, row-major, rows from the top, alive while the image is written.
+struct ImageChannel {
+  std::string name;
+  const float* values;
+};
 struct ImageRows {
   u32 width = 0, height = 0;
   std::function<void(u32 first_row, u32 row_count, float* rgb)> fill;
+  std::vector<ImageChannel> channels;
 };
 
 // The rows of an image held whole.
@@ -87,7 +94,8 @@ void check_output_path(const std::filesystem::path& path);
 
 // Writes the image through an AtomicFile (base/atomic_file.hpp): a failure, a full disk included, never leaves a
 // half-written file under the final name nor replaces the file that was there. PNG is 8-bit sRGB (values clamped);
-// PFM and OpenEXR keep linear floats. Throws InputError ("PATH: cannot write the image: REASON").
+// PFM and OpenEXR keep linear floats; only OpenEXR takes an image's other channels (ImageRows::channels). Throws
+// InputError ("PATH: cannot write the image: REASON").
 void write_image(const std::filesystem::path& path, const ImageRows& image);
 void write_image(const std::filesystem::path& path, const LinearImage& image);
 

@@ -25,6 +25,7 @@
 #include "base/errors.hpp"
 #include "base/number_formats.hpp"
 #include "film/film.hpp"
+#include "film/layers.hpp"
 #include "image/image_io.hpp"
 #include "loading/scene_loader.hpp"
 
@@ -78,6 +79,7 @@ struct PyRender {
   double seconds = 0;
   u64 samples = 0, rays = 0, dropped_samples = 0;
   std::string backend;
+  py::dict layers;  // name -> float32 array: (height, width, 3) for albedo and normal, (height, width) for depth and samples
 };
 
 struct RenderArguments {
@@ -87,6 +89,7 @@ struct RenderArguments {
   int sycl_device = -1;
   double time_limit = 0;
   py::object progress = py::none();
+  std::vector<std::string> layers;
 };
 
 Integrator integrator_named(const std::string& name) {
@@ -134,6 +137,7 @@ PyRender render_with(const SceneDescription& scene, const RenderArguments& argum
 
   PyRender result;
   LinearImage image;
+  RenderLayers layers;
   {
     const py::gil_scoped_release released;
     const FlatScene<T> flat = flatten_scene<T>(scene, settings);
@@ -141,6 +145,7 @@ PyRender render_with(const SceneDescription& scene, const RenderArguments& argum
         make_render_backend<T>(arguments.backend, devices, arguments.threads, integrator, arguments.sycl_device);
     const RenderedFilm film = render_film(*backend, flat, progress, control);
     image = resolve_film(film.pixels(), film.width, film.height);
+    if (!arguments.layers.empty() && !raised) layers = render_layers(*backend, flat, film, arguments.layers);
     result.samples_per_pixel = film.samples_done;
     result.stopped_early = film.stopped_early;
     result.seconds = film.stats.seconds;
@@ -152,6 +157,24 @@ PyRender render_with(const SceneDescription& scene, const RenderArguments& argum
   if (raised) std::rethrow_exception(raised);
   result.image = py::array_t<float>({static_cast<py::ssize_t>(image.height), static_cast<py::ssize_t>(image.width), py::ssize_t{3}});
   std::memcpy(result.image.mutable_data(), image.rgb.data(), image.rgb.size() * sizeof(float));
+  const auto height = static_cast<py::ssize_t>(image.height), width = static_cast<py::ssize_t>(image.width);
+  for (const std::string& name : arguments.layers) {
+    const bool colour = name == "albedo" || name == "normal";
+    py::array_t<float> array = colour ? py::array_t<float>({height, width, py::ssize_t{3}}) : py::array_t<float>({height, width});
+    float* out = array.mutable_data();
+    const std::size_t pixels = static_cast<std::size_t>(height) * static_cast<std::size_t>(width);
+    if (colour) {
+      const char* components = name == "albedo" ? "RGB" : "XYZ";
+      for (int c = 0; c < 3; ++c) {
+        const std::vector<float>& plane = layers.channel(name + "." + components[c]);
+        for (std::size_t i = 0; i < pixels; ++i) out[3 * i + static_cast<std::size_t>(c)] = plane[i];
+      }
+    } else {
+      const std::vector<float>& plane = layers.channel(name == "depth" ? "depth.Z" : "samples.Y");
+      std::memcpy(out, plane.data(), pixels * sizeof(float));
+    }
+    result.layers[name.c_str()] = array;
+  }
   return result;
 }
 
@@ -241,6 +264,8 @@ PYBIND11_MODULE(pathtracer, m) {
       .def_readonly("rays", &PyRender::rays)
       .def_readonly("dropped_samples", &PyRender::dropped_samples, "non-finite samples left out of their pixel")
       .def_readonly("backend", &PyRender::backend)
+      .def_readonly("layers", &PyRender::layers,
+                    "the render layers asked for (docs/python.md): albedo and normal (height, width, 3), depth and samples (height, width)")
       .def(
           "__array__", [](const PyRender& r, const py::object&) { return r.image; }, py::arg("dtype") = py::none());
 
@@ -249,7 +274,7 @@ PYBIND11_MODULE(pathtracer, m) {
       [](const py::object& scene, std::optional<u32> width, std::optional<u32> height, std::optional<u32> spp, std::optional<u32> depth,
          std::optional<u32> seed, std::optional<std::string> light_sampling, std::optional<std::string> sampler, const std::string& backend,
          const std::string& device, unsigned threads, const std::string& integrator, const std::string& number_format, std::optional<int> sycl_device,
-         std::optional<double> time_limit, const py::object& progress, bool trust_model_paths) {
+         std::optional<double> time_limit, const py::object& progress, const py::object& layers, bool trust_model_paths) {
         RenderArguments arguments;
         arguments.overrides = {width, height, spp, depth, seed, {}, {}};
         if (light_sampling) {
@@ -274,17 +299,23 @@ PYBIND11_MODULE(pathtracer, m) {
         arguments.sycl_device = sycl_device.value_or(-1);
         arguments.time_limit = time_limit.value_or(0);
         arguments.progress = progress;
+        if (py::isinstance<py::str>(layers))
+          arguments.layers = parse_layer_list(layers.cast<std::string>(), fmt::format("layers='{}'", clip(layers.cast<std::string>())));
+        else if (!layers.is_none())
+          arguments.layers = parse_layer_list(fmt::format("{}", fmt::join(layers.cast<std::vector<std::string>>(), ",")),
+                                              fmt::format("layers={}", clip(py::repr(layers).cast<std::string>())));
         return render(scene_of(scene, trust_model_paths), arguments);
       },
       py::arg("scene"), py::kw_only(), py::arg("width") = py::none(), py::arg("height") = py::none(), py::arg("spp") = py::none(),
       py::arg("depth") = py::none(), py::arg("seed") = py::none(), py::arg("light_sampling") = py::none(), py::arg("sampler") = py::none(),
       py::arg("backend") = "cpu", py::arg("device") = "0", py::arg("threads") = 0u, py::arg("integrator") = "auto",
       py::arg("number_format") = "float", py::arg("sycl_device") = py::none(), py::arg("time_limit") = py::none(), py::arg("progress") = py::none(),
-      py::arg("trust_model_paths") = false,
+      py::arg("layers") = py::none(), py::arg("trust_model_paths") = false,
       "Renders a scene (a path, a dict or a Scene) with the scene's settings and the ones given, as `pathtracer render` does.\n"
       "progress(report) is called after every pass with a dict (samples_done, samples_total, elapsed_seconds,\n"
       "samples_per_second); returning False stops the render, which returns the image of the samples done.\n"
-      "An exception in it, or Ctrl-C, stops the render and is raised. Returns a Render.");
+      "An exception in it, or Ctrl-C, stops the render and is raised. layers: 'albedo,normal', a list of names, or 'all'.\n"
+      "Returns a Render.");
 
   m.def("write_image", &write_array, py::arg("path"), py::arg("image"),
         "Writes a float array (height, width, 3) of linear RGB as PNG (8-bit sRGB), PFM or OpenEXR, by the extension, as the program does.");

@@ -205,3 +205,21 @@ def test_the_dict_of_docs_python_md_renders():
     # The sphere is reddish where the camera looks at it.
     centre = image[40:50, 75:85].mean(axis=(0, 1))
     assert centre[0] > centre[2]
+
+
+def test_layers_come_as_arrays_and_match_the_exr_the_program_writes(tmp_path):
+    scene = SCENES / "tiny.json"
+    render = pathtracer.render(scene, **SMALL, layers="all")
+    assert set(render.layers) == {"albedo", "normal", "depth", "samples"}
+    assert render.layers["albedo"].shape == (24, 40, 3) and render.layers["normal"].shape == (24, 40, 3)
+    assert render.layers["depth"].shape == (24, 40) and render.layers["samples"].shape == (24, 40)
+    assert (render.layers["samples"] == 4).all()
+    assert ((render.layers["albedo"] >= 0) & (render.layers["albedo"] <= 1)).all()
+    lengths = np.linalg.norm(render.layers["normal"], axis=2)
+    assert (lengths <= 1 + 1e-5).all() and (lengths > 0.5).any()
+    assert np.array_equal(render.image, pathtracer.render(scene, **SMALL).image)  # layers leave the image as it is
+    only = pathtracer.render(scene, **SMALL, layers=["depth"])
+    assert set(only.layers) == {"depth"} and np.array_equal(only.layers["depth"], render.layers["depth"])
+    assert pathtracer.render(scene, **SMALL).layers == {}
+    with pytest.raises(pathtracer.Error, match="^layers='nrm': no layer 'nrm' \\(layers: albedo, normal, depth, samples, or all\\)$"):
+        pathtracer.render(scene, **SMALL, layers="nrm")
