@@ -361,12 +361,17 @@ std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
     unsigned id, table;
   };
   std::vector<FrameComponent> frame;
-  bool progressive = false, scanned = false;
+  bool progressive = false, scanned = false, framed = false;
   for (;;) {
     if (!walk.has(2))
       return fmt::format("truncated: the JPEG ends at byte {} {}", bytes.size(),
                          scanned ? "without its end-of-image marker" : "before its image data");
-    if (walk.byte() != 0xFF) return std::nullopt;  // not a marker: stb refuses it itself
+    if (walk.byte() != 0xFF) {
+      // Not a marker: before the frame stb skips such bytes (padding some files have) up to the next 0xFF; after
+      // it, stb refuses the file itself.
+      if (framed) return std::nullopt;
+      continue;
+    }
     unsigned marker = walk.byte();
     while (marker == 0xFF && walk.has(1)) marker = walk.byte();          // fill bytes
     if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // markers without a segment
@@ -395,6 +400,7 @@ std::optional<std::string> jpeg_problem(std::span<const u8> bytes) {
       }
     } else if (marker == 0xC0 || marker == 0xC1 || marker == 0xC2) {  // the frame: its components' quantisation tables
       progressive = marker == 0xC2;
+      framed = true;
       frame.clear();
       const unsigned components = walk.byte_at(segment + 7);
       for (unsigned c = 0; c < components; ++c) frame.push_back({walk.byte_at(segment + 8 + 3 * c), walk.byte_at(segment + 10 + 3 * c)});

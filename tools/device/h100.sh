@@ -19,12 +19,12 @@ if [[ $steps == *check* ]]; then
   out/device/bin/pt_tests --gtest_brief=1 >"$OUT/tests.log" 2>&1
   echo "pt_tests exit $?"; grep -E "PASSED|FAILED|SKIPPED|tests ran" "$OUT/tests.log" | tail -8
   grep -E "rmse cpu-gpu|wavefront-megakernel" "$OUT/tests.log" | head -20
-  echo "== compute-sanitizer on every shipped scene (small sizes, both integrators)"
+  echo "== compute-sanitizer on every shipped scene (small sizes, both integrators, the render layers too)"
   for scene in scenes/*.json; do
     for integrator in megakernel wavefront; do
       for tool in memcheck racecheck initcheck; do
         compute-sanitizer --tool $tool --error-exitcode 9 "$PT" render "$scene" --backend cuda --integrator $integrator \
-          --width 32 --height 24 --spp 2 -q -o "$SCRATCH/sanitize.pfm" >"$SCRATCH/sanitizer.log" 2>&1
+          --width 32 --height 24 --spp 2 --layers all -q -o "$SCRATCH/sanitize.exr" >"$SCRATCH/sanitizer.log" 2>&1
         status=$?
         [ $status -eq 0 ] || { echo "FAILED $tool $integrator $(basename "$scene"): exit $status"; tail -20 "$SCRATCH/sanitizer.log"; }
       done
