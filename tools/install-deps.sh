@@ -4,6 +4,7 @@
 #   install-deps.sh            what the release, debug, asan and tsan presets need (the build and the tests)
 #   install-deps.sh fuzz       that and clang 16 with its runtimes, which the fuzz preset compiles with (libFuzzer)
 #   install-deps.sh synthesis  that and Yosys, nextpnr and IceStorm, which synthesise the units (tools/hardware/synth.py)
+#   install-deps.sh bench      that and Embree 3, which bench/embree_side_by_side.cpp compares our traversal with
 set -euo pipefail
 packages=(cmake ninja-build g++ libtbb-dev libfmt-dev libcli11-dev nlohmann-json3-dev libstb-dev libopenexr-dev zlib1g-dev
           libgtest-dev libbenchmark-dev libtinyobjloader-dev libtinygltf-dev assimp-testmodels libopenmpi-dev openmpi-bin
@@ -12,7 +13,8 @@ for extra in "$@"; do
   case "$extra" in
     fuzz) packages+=(clang-16 libclang-rt-16-dev) ;;
     synthesis) packages+=(yosys nextpnr-ice40 fpga-icestorm) ;;
-    *) echo "install-deps.sh: unknown set '$extra' (known: fuzz, synthesis)" >&2; exit 2 ;;
+    bench) packages+=(libembree-dev) ;;
+    *) echo "install-deps.sh: unknown set '$extra' (known: fuzz, synthesis, bench)" >&2; exit 2 ;;
   esac
 done
 missing=()

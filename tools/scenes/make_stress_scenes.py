@@ -11,8 +11,10 @@ seed makes them reproducible.
   bumpy-2m.ply           a bumpy sphere of 2,000,000 triangles (binary PLY, 50 MB), and bumpy-2m.json rendering it
   bumpy-instances.json   bumpy-1m.ply           the same with 1,000,000 triangles, and bumpy-1m.json: diffuse, for the GPU's 1M-triangle figure
   bumpy-200k.ply (200,000 triangles) placed 100 times: 20 million triangles as instances
+  heightfield-1m.ply     a 708 x 708 grid of heights (999,698 triangles, binary PLY), and heightfield-1m.json seeing it
+                         from above: the GPU issue's million-triangle height field
 
-Usage: python3 tools/scenes/make_stress_scenes.py [--out FOLDER]
+Usage: python3 tools/scenes/make_stress_scenes.py [--out FOLDER] [--meshes-only]
 """
 
 import argparse
@@ -80,6 +82,29 @@ def bumpy_sphere(path, rings):
             out.write(row)
 
 
+def height_field(path, side):
+    """A side x side grid of vertices over [-1, 1]^2 in x and z, heights of a few waves, as binary little-endian PLY."""
+    with open(path, "wb") as out:
+        out.write((f"ply\nformat binary_little_endian 1.0\nelement vertex {side * side}\n"
+                   "property float x\nproperty float y\nproperty float z\n"
+                   f"element face {2 * (side - 1) * (side - 1)}\nproperty list uchar int vertex_indices\nend_header\n").encode())
+        for i in range(side):
+            z = -1 + 2 * i / (side - 1)
+            row = bytearray()
+            for j in range(side):
+                x = -1 + 2 * j / (side - 1)
+                y = 0.08 * math.sin(9 * x) * math.cos(7 * z) + 0.03 * math.sin(31 * x + 17 * z) + 0.01 * math.cos(83 * z - 61 * x)
+                row += struct.pack("<3f", x, y, z)
+            out.write(row)
+        for i in range(side - 1):
+            row = bytearray()
+            for j in range(side - 1):
+                a = i * side + j
+                b = a + side
+                row += struct.pack("<B3iB3i", 3, a, b, a + 1, 3, a + 1, b, b + 1)
+            out.write(row)
+
+
 MESH_SCENE = """{{
   "render": {{"width": 1280, "height": 720, "samples_per_pixel": 64, "max_depth": 8}},
   "camera": {{"look_from": [{eye}], "look_at": [{at}], "vertical_fov": 40}},
@@ -106,15 +131,21 @@ def mesh_scenes(out):
             placed.append(f'    {{"type": "mesh", "file": "bumpy-200k.ply", "transform": {{"scale": 0.8, "rotate": [{7 * i}, {11 * j}, 0], '
                           f'"translate": [{2.2 * (i - 4.5):.1f}, 0, {-2.2 * j:.1f}]}}}}')
     (out / "bumpy-instances.json").write_text(MESH_SCENE.format(eye="0, 6, 9", at="0, 0, -8", objects=",\n".join(placed)))
+    height_field(out / "heightfield-1m.ply", 708)
+    mesh = '    {"type": "mesh", "file": "heightfield-1m.ply", "material": {"type": "lambertian", "albedo": [0.6, 0.7, 0.5]}}'
+    (out / "heightfield-1m.json").write_text(MESH_SCENE.format(eye="0, 2.2, 0.6", at="0, 0, 0", objects=mesh))
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="/tmp/pathtracer-stress")
+    parser.add_argument("--meshes-only", action="store_true", help="only the mesh scenes (bumpy spheres, the height field)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     mesh_scenes(out)
+    if args.meshes_only:
+        return
     write_spheres(out / "spheres-1m.json", 1_000_000)
     big = 2_500_000
     write_spheres(out / "spheres-225mb.json", big)
