@@ -203,7 +203,7 @@ TEST(RenderLayers, NamesAreCheckedAndKeptInOrder) {
 // The program writes them with --layers, into OpenEXR only, refusing other formats before it renders.
 TEST(RenderLayers, CommandLineWritesThemAndRefusesOtherFormats) {
   test::TempDir dir;
-  const std::string program = PT_PATHTRACER_BINARY, scene = test::scene_path("tiny.json").string();
+  const std::string program = test::pathtracer_binary(), scene = test::scene_path("tiny.json").string();
   const std::string common = " --width 16 --height 12 --spp 2 -q";
   ASSERT_EQ(std::system((program + " render " + scene + common + " --layers normal,samples -o " + (dir / "l.exr").string()).c_str()), 0);
   Imf::InputFile in((dir / "l.exr").c_str());
