@@ -52,6 +52,11 @@ case "$case" in
     # Two CPU devices in each of two ranks: bands of bands.
     mpi 2 "$pathtracer" render "$scene" "${size[@]}" --threads 2 --device cpu,cpu -o nested.pfm
     same one.pfm nested.pfm "2 ranks of 2 CPU devices each"
+    # Adaptive sampling: the stops travel with the bands' films, and the image is the one process's.
+    adaptive=(--width 48 --height 37 --spp 48 --noise-threshold 0.03 -q)
+    "$pathtracer" render "$scene" "${adaptive[@]}" --threads 1 -o adaptive-one.pfm
+    mpi 2 "$pathtracer" render "$scene" "${adaptive[@]}" --threads 1 -o adaptive-ranks.pfm
+    same adaptive-one.pfm adaptive-ranks.pfm "2 ranks, adaptive sampling"
     ;;
   mpi-failed-rank)
     # Rank 1 cannot read its scene: one error naming it, a failing status, and no image.

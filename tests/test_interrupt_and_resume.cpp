@@ -77,7 +77,7 @@ TEST(Checkpoint, RoundTripsAndRefusesAnotherSceneSizeOrSettings) {
   test::TempDir dir;
   const CheckpointKey key = checkpoint_key("{\"scene\": 1}", "depth 5 seed 1", 3, 2);
   std::vector<FilmPixel> film(6);
-  for (std::size_t i = 0; i < film.size(); ++i) film[i] = FilmPixel{0.1 * i, 0.2, 0.3, static_cast<u32>(i), 7};
+  for (std::size_t i = 0; i < film.size(); ++i) film[i] = FilmPixel{0.1 * i, 0.2, 0.3, 0.05f, static_cast<u32>(i), 7, i % 2 ? 16u : 0u};
   write_checkpoint(dir / "a.film", key, film, 5);
   const Checkpoint back = read_checkpoint(dir / "a.film", key);
   EXPECT_EQ(back.samples_done, 5u);
@@ -115,7 +115,7 @@ TEST(Checkpoint, AnyFlippedBitIsRefused) {
   test::TempDir dir;
   const CheckpointKey key = checkpoint_key("scene", "settings", 3, 2);
   std::vector<FilmPixel> film(6);
-  for (std::size_t i = 0; i < film.size(); ++i) film[i] = FilmPixel{0.25 * i, 0.5, 1.0 + i, static_cast<u32>(i), 3};
+  for (std::size_t i = 0; i < film.size(); ++i) film[i] = FilmPixel{0.25 * i, 0.5, 1.0 + i, 0.5f, static_cast<u32>(i), 3, 0};
   write_checkpoint(dir / "a.film", key, film, 3);
   const std::string whole = test::read_text_file(dir / "a.film");
   for (std::size_t byte = 0; byte < whole.size(); ++byte) {

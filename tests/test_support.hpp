@@ -310,12 +310,13 @@ std::vector<FilmPixel> render_film(const FlatScene<T>& scene, unsigned threads, 
   return film;
 }
 
-// Whether two films hold the same sums bit for bit, and the same sample and ray counts.
+// Whether two films hold the same sums bit for bit, and the same sample and ray counts and stops.
 inline bool same_film(const std::vector<FilmPixel>& a, const std::vector<FilmPixel>& b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i)
     if (std::memcmp(&a[i].r, &b[i].r, sizeof(double)) || std::memcmp(&a[i].g, &b[i].g, sizeof(double)) ||
-        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || a[i].samples != b[i].samples || a[i].rays != b[i].rays)
+        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || std::memcmp(&a[i].odd_brightness, &b[i].odd_brightness, sizeof(float)) ||
+        a[i].samples != b[i].samples || a[i].rays != b[i].rays || a[i].stopped_at != b[i].stopped_at)
       return false;
   return true;
 }
@@ -371,7 +372,7 @@ PixelStatistics backend_sample_statistics(RenderBackend<T>& backend, const FlatS
   const std::size_t pixels = static_cast<std::size_t>(stats.width) * stats.height;
   // stats.variance holds the sums of squared deviations until the end.
   std::vector<u32> counts(pixels, 0);
-  std::vector<FilmPixel> before(pixels, FilmPixel{0, 0, 0, 0, 0}), after;
+  std::vector<FilmPixel> before(pixels, FilmPixel{}), after;
   backend.upload(scene);
   for (u32 s = 0; s < samples; ++s) {
     backend.render(s, 1);

@@ -61,6 +61,7 @@ struct RenderOptions {
   std::string integrator = "auto";
   std::optional<std::string> light_sampling;  // "nee" or "none"; the scene's (NEE by default) if omitted
   std::optional<std::string> sampler;         // "sobol" or "independent"; the scene's (sobol by default) if omitted
+  std::optional<double> noise_threshold;      // adaptive sampling; the scene's (off by default) if omitted
   bool quiet = false;
   bool verbose = false;            // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
@@ -105,7 +106,7 @@ void draw_progress(const Progress& p) {
 }
 
 RenderSettings effective_settings(const RenderOptions& options, const SceneDescription& scene) {
-  RenderOverrides overrides{options.width, options.height, options.spp, options.depth, options.seed, {}, {}};
+  RenderOverrides overrides{options.width, options.height, options.spp, options.depth, options.seed, {}, {}, options.noise_threshold};
   if (options.light_sampling) overrides.light_sampling = *options.light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
   if (options.sampler) overrides.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
   return apply_overrides(scene, overrides, kCommandLineSpelling);
@@ -171,8 +172,9 @@ CheckpointKey render_key(const RenderOptions& options, const SceneDescription& s
   text << in.rdbuf();
   return checkpoint_key(
       text.str(),
-      fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {}", settings.max_depth, settings.seed, settings.roulette_depth,
-                  options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee", sampler_name(settings.sampler)),
+      fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {} noise threshold {}", settings.max_depth, settings.seed,
+                  settings.roulette_depth, options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee",
+                  sampler_name(settings.sampler), settings.noise_threshold),
       settings.width, settings.height);
 }
 
@@ -539,6 +541,9 @@ int main(int argc, char** argv) {
                      "sobol (each pixel's samples stratified in every dimension: Owen-scrambled Sobol points) or independent "
                      "(uncorrelated random numbers); the scene's, else sobol, if omitted")
         ->check(CLI::IsMember({"sobol", "independent"}));
+    command->add_option("--noise-threshold", options.noise_threshold,
+                        "Adaptive sampling: a pixel stops taking samples once its estimated relative error is below this (e.g. 0.02; "
+                        "0: off; docs/adaptive-sampling.md); the scene's, else 0, if omitted");
     command->add_flag("--trust-model-paths", options.trust_model_paths,
                       "Let model files (OBJ, MTL, glTF) name files outside their own folder: absolute paths, '..', links that lead out");
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")

@@ -16,7 +16,8 @@
 namespace pt {
 namespace {
 
-constexpr char kMagic[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '2'};
+constexpr char kMagic[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '3'};
+constexpr char kMagicOf32BytePixels[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '2'};
 constexpr char kMagicWithoutChecksum[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '1'};
 
 // Everything before the pixels. FilmPixel's layout is part of the format: a change of it changes the magic.
@@ -27,7 +28,7 @@ struct Header {
   u32 samples_done;
   u32 pixel_bytes;
 };
-static_assert(sizeof(FilmPixel) == 32, "the checkpoint format stores FilmPixel as 32 bytes");
+static_assert(sizeof(FilmPixel) == 40, "the checkpoint format stores FilmPixel as 40 bytes");
 
 // CRC-32 (zlib's) of the header and the film, stored after the film: a flipped bit anywhere is found. zlib takes
 // lengths as unsigned int, so a large film is summed in pieces.
@@ -80,6 +81,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& file, const CheckpointKe
   Header header{};
   if (!in.read(reinterpret_cast<char*>(&header), sizeof(header))) throw refuse("not a checkpoint of this program");
   if (std::memcmp(header.magic, kMagicWithoutChecksum, sizeof(kMagic)) == 0) throw refuse("written by an older version, without a checksum");
+  if (std::memcmp(header.magic, kMagicOf32BytePixels, sizeof(kMagic)) == 0) throw refuse("written by an older version, without adaptive sampling's sums");
   if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0) throw refuse("not a checkpoint of this program");
   if (header.pixel_bytes != sizeof(FilmPixel)) throw refuse("written by a version with another film layout");
   if (header.width != key.width || header.height != key.height)

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "base/number_formats.hpp"
+#include "film/adaptive.hpp"
 #include "base/parallel_loop.hpp"
 
 namespace pt {
@@ -48,10 +49,11 @@ ImageRows film_rows(const RenderedFilm& film) {
 RenderStats film_stats(std::span<const FilmPixel> film, u32 samples_per_pixel) {
   RenderStats stats;
   for (const FilmPixel& p : film) {
+    const u32 given = p.stopped_at != 0 ? std::min(p.stopped_at, samples_per_pixel) : samples_per_pixel;  // fewer where adaptive sampling stopped it
     stats.rays += p.rays;
-    stats.dropped_samples += samples_per_pixel - p.samples;
+    stats.dropped_samples += given - p.samples;
+    stats.samples += given;
   }
-  stats.samples = static_cast<u64>(film.size()) * samples_per_pixel;
   return stats;
 }
 
@@ -88,27 +90,46 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     control.checkpoint(backend.film_on_host(saved), done);
     last_checkpoint = Clock::now();
   };
-  while (done < total) {
+  // Adaptive sampling: passes end at the sample counts where pixels are judged, and there the film is read, its
+  // clean pixels marked stopped, and written back; the kernels skip stopped pixels.
+  const bool adaptive = scene.noise_threshold > 0;
+  std::vector<FilmPixel> judged;
+  std::size_t taking = adaptive ? pixels_taking_samples(backend.film_on_host(judged)) : static_cast<std::size_t>(pixels);
+  u64 traced = 0;  // pixel-samples this run
+  while (done < total && taking > 0) {
     // A time limit stops a render only after it has made a pass, so that even a tiny limit leaves an image.
     if (stop() || (control.time_limit_seconds > 0 && done > first && seconds_since(start) >= control.time_limit_seconds)) {
       stopped = true;
       break;
     }
     pass = std::min(pass, total - done);
+    if (adaptive) pass = std::min(pass, next_judgement(done) - done);
     // A pass given up on a stop leaves the film as it was before it: the render ends with the samples done.
     if (!backend.render_unless(done, pass, stop)) {
       stopped = true;
       break;
     }
     done += pass;
+    traced += static_cast<u64>(pass) * taking;
+    if (adaptive && is_judgement(done) && done < total) {
+      const std::span<const FilmPixel> film = backend.film_on_host(judged);
+      if (film.data() != judged.data()) judged.assign(film.begin(), film.end());
+      const std::size_t before = taking;
+      taking = stop_clean_pixels(judged, scene.params.width, scene.params.height, done, scene.noise_threshold);
+      if (taking != before) backend.write_film(judged);
+    }
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-    const double rate = elapsed > 0 ? (done - first) * pixels / elapsed : 0;
+    const double rate = elapsed > 0 ? static_cast<double>(traced) / elapsed : 0;
+    // Every pixel clean: the render is complete.
+    if (taking == 0) done = total;
     if (progress) progress(Progress{done, total, elapsed, rate});
     if (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds) save();
     // Passes of about half a second by default: often enough to report and to stop (mpirun kills ranks 1 s after
     // passing on a SIGTERM, so rank 0 must end its pass, save and write within it), rarely enough to cost nothing.
-    // A backend that gives up a pass on a stop may ask for longer ones.
-    pass = next_pass_samples(elapsed, done - first, pass, backend.pass_seconds(),
+    // A backend that gives up a pass on a stop may ask for longer ones. (Under adaptive sampling the pace is that of
+    // the pixels still taking samples, so passes lengthen as pixels stop.)
+    const double pace = traced > 0 ? elapsed * static_cast<double>(taking) * (done - first) / static_cast<double>(traced) : elapsed;
+    pass = next_pass_samples(pace, done - first, pass, backend.pass_seconds(),
                              control.time_limit_seconds > 0 ? std::max(control.time_limit_seconds - elapsed, 1e-9) : 0.0);
   }
   if (done > first) save();  // stopped or finished, either can be resumed (a finished render to more samples)
@@ -122,7 +143,7 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
   film.on_backend = backend.film_on_host(film.copy);
   if (film.on_backend.data() == film.copy.data()) film.on_backend = {};  // the copy it is
   film.stats = film_stats(film.pixels(), done);
-  film.stats.samples = static_cast<u64>(film.pixels().size()) * (done - first);  // traced by this run
+  film.stats.samples = traced;
   film.stats.saturations = backend.saturations();
   film.stats.seconds = render_seconds;
   film.stats.upload_seconds = upload_seconds;

@@ -66,7 +66,7 @@ struct RenderedFilm {
   std::span<const FilmPixel> pixels() const { return copy.empty() ? on_backend : std::span<const FilmPixel>(copy); }
 };
 
-// The film resolved a band of rows at a time, as the image writers ask for it: the film (32 bytes a pixel) is the
+// The film resolved a band of rows at a time, as the image writers ask for it: the film (40 bytes a pixel) is the
 // only full-size buffer while an image is written. Refers to `film`, which must outlive it.
 ImageRows film_rows(const RenderedFilm& film);
 

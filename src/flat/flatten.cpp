@@ -707,6 +707,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
                                 settings.seed,   settings.roulette_depth, settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u,
                                 settings.sampler};
   flat.samples_per_pixel = settings.samples_per_pixel;
+  flat.noise_threshold = settings.noise_threshold;
   check_pixel_resolution(fit, camera, settings.width, settings.height);
   build_light_table(flat);
   return flat;

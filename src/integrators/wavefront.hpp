@@ -44,6 +44,7 @@ class WavefrontIntegrator {
       array = static_cast<Entry*>(memory_.allocate(entries * sizeof(Entry), "allocating the wavefront path pool"));
     });
     view_.pixels = pixels();
+    active_list_ = static_cast<u32*>(memory_.allocate(static_cast<std::size_t>(pixels()) * sizeof(u32), "allocating the list of pixels taking samples"));
     device_.clear(view_.counters, kWavefrontCounters * sizeof(u32), "clearing the wavefront queues");
   }
 
@@ -54,13 +55,19 @@ class WavefrontIntegrator {
   // band takes more samples a batch than the whole image, as many as the results allocated for the image hold.
   void render_rows(u32 first_row, u32 row_count, FilmPixel* film, u32 first_sample, u32 sample_count) {
     const u32 band_pixels = scene_.params.width * row_count;
-    view_.pixels = band_pixels;
     view_.first_pixel = scene_.params.width * first_row;
+    // Only the pixels adaptive sampling has not stopped become work items; where none is stopped, the list is left
+    // out (one load less in every stage).
+    stage(kGenerate, band_pixels, WavefrontActivePixels{film, active_list_, view_.counters + kCounterNextPaths});
+    const u32 active = take_counters()[kCounterNextPaths];
+    if (active == 0) return;
+    view_.pixels = active;
+    view_.active_pixels = active < band_pixels ? active_list_ : nullptr;
     const u32 samples_per_batch =
-        static_cast<u32>(std::min<std::size_t>(wavefront_samples_per_batch(band_pixels, pool_capacity_), work_items_ / band_pixels));
+        static_cast<u32>(std::min<std::size_t>(wavefront_samples_per_batch(active, pool_capacity_), work_items_ / active));
     for (u32 batch_first = first_sample; batch_first < first_sample + sample_count; batch_first += samples_per_batch) {
       const u32 batch_samples = std::min(samples_per_batch, first_sample + sample_count - batch_first);
-      const u32 items = band_pixels * batch_samples;
+      const u32 items = active * batch_samples;
       view_.first_sample = batch_first;
       u32 next_item = 0, live = 0;
       while (next_item < items || live > 0) {
@@ -79,7 +86,7 @@ class WavefrontIntegrator {
         live = shaded[kCounterNextPaths];
         view_.swap_pools();
       }
-      stage(kAccumulate, band_pixels, WavefrontAccumulate<T>{view_, film, batch_samples});
+      stage(kAccumulate, active, WavefrontAccumulate<T>{view_, film, batch_samples});
     }
     device_.synchronise("running the wavefront stages");
   }
@@ -125,6 +132,7 @@ class WavefrontIntegrator {
   SceneView<T> scene_;
   FilmPixel* film_;
   u32 pool_capacity_, samples_per_batch_;  // the batch's samples for the whole image
+  u32* active_list_ = nullptr;             // the pixels taking samples (WavefrontActivePixels)
   std::size_t work_items_ = 0;             // results allocated: the whole image's batch
   WavefrontView<T> view_{};
   std::array<double, kWavefrontStageNames.size()> seconds_{};

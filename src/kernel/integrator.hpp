@@ -206,21 +206,29 @@ PT_HD inline SampleResult<T> trace_sample(const SceneView<T>& scene, u32 x, u32 
 
 // One pixel of the film: the sum of its finite samples (in double, so long renders lose no precision),
 // how many there were, and how many rays they cost. Non-finite samples are left out and counted by the host
-// as requested minus accumulated.
+// as requested minus accumulated. Adaptive sampling (film/adaptive.hpp) keeps two more numbers: the brightness
+// (r + g + b) of the odd-numbered samples, whose mean against the whole mean estimates the pixel's error, and the
+// sample count at which the pixel was judged clean and stopped (0 while it takes samples). Everything a pixel
+// needs is here, so bands sent to other devices or processes and saved films carry it.
 struct FilmPixel {
   double r, g, b;
+  float odd_brightness;
   u32 samples;
   u32 rays;
+  u32 stopped_at;
 };
 
-// Adds one sample to a film pixel; a non-finite sample is left out (and so counted as dropped).
+// Adds sample number `sample` to a film pixel; a non-finite sample is left out (and so counted as dropped).
+// Brightness is a plain sum of the channels: no product a compiler could fuse differently in two kernels.
 template <class T>
-PT_HD inline void add_sample(FilmPixel& pixel, const SampleResult<T>& result) {
+PT_HD inline void add_sample(FilmPixel& pixel, const SampleResult<T>& result, u32 sample) {
   pixel.rays += result.rays;
   if (!is_finite(result.radiance)) return;
-  pixel.r += static_cast<double>(result.radiance.x);
-  pixel.g += static_cast<double>(result.radiance.y);
-  pixel.b += static_cast<double>(result.radiance.z);
+  const double r = static_cast<double>(result.radiance.x), g = static_cast<double>(result.radiance.y), b = static_cast<double>(result.radiance.z);
+  pixel.r += r;
+  pixel.g += g;
+  pixel.b += b;
+  if (sample & 1u) pixel.odd_brightness += static_cast<float>(r + g + b);
   ++pixel.samples;
 }
 
@@ -228,8 +236,9 @@ PT_HD inline void add_sample(FilmPixel& pixel, const SampleResult<T>& result) {
 // increasing order, so the sum does not depend on how a render is split into passes, launches or threads.
 template <class T>
 PT_HD inline void accumulate_pixel(const SceneView<T>& scene, u32 x, u32 y, u32 first_sample, u32 sample_count, FilmPixel& pixel) {
+  if (pixel.stopped_at != 0) return;  // judged clean by adaptive sampling
   FilmPixel sum = pixel;
-  for (u32 s = first_sample; s < first_sample + sample_count; ++s) add_sample(sum, trace_sample(scene, x, y, s));
+  for (u32 s = first_sample; s < first_sample + sample_count; ++s) add_sample(sum, trace_sample(scene, x, y, s), s);
   pixel = sum;
 }
 
@@ -261,8 +270,9 @@ struct MegakernelSample {
   u32 first_row = 0;  // of the band, as in MegakernelPass
   PT_HD void operator()(u32 x, u32 y) const {
     FilmPixel& pixel = film[static_cast<std::size_t>(y) * scene.params.width + x];
+    if (pixel.stopped_at != 0) return;  // judged clean by adaptive sampling
     FilmPixel sum = pixel;
-    add_sample(sum, trace_sample(scene, x, first_row + y, sample));
+    add_sample(sum, trace_sample(scene, x, first_row + y, sample), sample);
     pixel = sum;
   }
 };

@@ -123,8 +123,11 @@ struct WavefrontView {
   u32* counters;             // kWavefrontCounters entries
   SampleResult<T>* results;  // one per work item of the batch
   u32 first_sample;
-  u32 pixels;           // of the band being rendered (the whole image, or rows of it: docs/distributed.md)
+  u32 pixels;           // taking samples in the band being rendered (the whole image, or rows of it: docs/distributed.md)
   u32 first_pixel = 0;  // the image's index of the band's first pixel; film and results are indexed within the band
+  // The band's pixels that take samples, where adaptive sampling has stopped some (in any order: each pixel's
+  // samples depend only on the pixel and the sample number, and are added in sample order); null: all of them.
+  const u32* active_pixels = nullptr;
 
   // Bytes of one path in flight: two pools (current and next), its hit, its shadow ray, and a slot in the escaped
   // queue and in every material queue.
@@ -147,7 +150,10 @@ struct WavefrontView {
     visit(results, work_items);
   }
 
-  PT_HD u32 pixel_of(u32 item) const { return item % pixels; }
+  PT_HD u32 pixel_of(u32 item) const {
+    const u32 index = item % pixels;
+    return active_pixels ? active_pixels[index] : index;
+  }
   PT_HD u32 image_pixel_of(u32 item) const { return first_pixel + pixel_of(item); }
   PT_HD u32* material_queue(u32 material_class) const { return material_queues + static_cast<std::size_t>(material_class) * pool_capacity; }
   // The paths that go on were written to `next`; they become the current ones (host side, between bounces).
@@ -242,13 +248,25 @@ PT_HD inline void wavefront_shadow(const SceneView<T>& scene, const WavefrontVie
     w.results[item].radiance += contribution;
 }
 
-// Stage 6, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does.
+// Stage 6, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does (`index`
+// counts the pixels that take samples).
 template <class T>
-PT_HD inline void wavefront_accumulate(const WavefrontView<T>& w, FilmPixel* film, u32 pixel, u32 sample_count) {
-  FilmPixel sum = film[pixel];
-  for (u32 s = 0; s < sample_count; ++s) add_sample(sum, w.results[s * w.pixels + pixel]);
-  film[pixel] = sum;
+PT_HD inline void wavefront_accumulate(const WavefrontView<T>& w, FilmPixel* film, u32 index, u32 sample_count) {
+  FilmPixel& pixel = film[w.pixel_of(index)];
+  FilmPixel sum = pixel;
+  for (u32 s = 0; s < sample_count; ++s) add_sample(sum, w.results[s * w.pixels + index], w.first_sample + s);
+  pixel = sum;
 }
+
+// Before a batch: the band's pixels that adaptive sampling has not stopped, listed at `list` (counted at `count`).
+struct WavefrontActivePixels {
+  const FilmPixel* film;
+  u32* list;
+  u32* count;
+  PT_HD void operator()(u32 pixel) const {
+    if (film[pixel].stopped_at == 0) list[queue_push(count)] = pixel;
+  }
+};
 
 // The stages as kernels over a queue (or the pixels, for accumulate): what each backend launches.
 template <class T>
@@ -293,7 +311,7 @@ struct WavefrontAccumulate {
   WavefrontView<T> view;
   FilmPixel* film;
   u32 sample_count;
-  PT_HD void operator()(u32 pixel) const { wavefront_accumulate(view, film, pixel, sample_count); }
+  PT_HD void operator()(u32 index) const { wavefront_accumulate(view, film, index, sample_count); }
 };
 
 }  // namespace pt

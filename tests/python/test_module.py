@@ -100,11 +100,23 @@ def test_a_dict_renders_as_its_file_does(monkeypatch):
 def test_scene_settings_and_overrides():
     scene = pathtracer.Scene(SCENES / "seed-default.json")
     settings = scene.settings
-    assert set(settings) == {"width", "height", "spp", "depth", "seed", "light_sampling", "sampler"}
+    assert set(settings) == {"width", "height", "spp", "depth", "seed", "light_sampling", "sampler", "noise_threshold"}
     render = pathtracer.render(scene, width=16, spp=1)
     assert render.image.shape == (settings["height"], 16, 3)
     assert scene.source.endswith("seed-default.json")
     assert "seed-default.json" in repr(scene)
+
+
+def test_noise_threshold_gives_the_programs_adaptive_image(tmp_path):
+    scene = SCENES / "tiny.json"
+    render = pathtracer.render(scene, width=40, height=24, spp=64, noise_threshold=0.03, layers="samples")
+    expected = program_render(tmp_path, scene, "--width", "40", "--height", "24", "--spp", "64", "--noise-threshold", "0.03")
+    assert np.array_equal(render.image, expected)
+    samples = render.layers["samples"]
+    assert samples.min() == 16 and samples.max() == 64  # the sky stopped at the first judgement, noisy pixels went on
+    assert render.samples == int(samples.sum()) < 40 * 24 * 64
+    with pytest.raises(pathtracer.Error, match=r"^noise_threshold=-1: not a relative error"):
+        pathtracer.render(scene, **SMALL, noise_threshold=-1)
 
 
 def test_errors_carry_the_programs_message(tmp_path):
