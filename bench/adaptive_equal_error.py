@@ -66,8 +66,10 @@ def main():
     parser.add_argument("--adaptive", action="append", default=[], help="THRESHOLD:MAX_SPP")
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--references", default="/tmp/adaptive-references")
-    parser.add_argument("extra", nargs="*")
-    args = parser.parse_args()
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
+    args = parser.parse_args(argv[: argv.index("--")] if "--" in argv else argv)
+    args.extra = extra
     size = tuple(int(v) for v in args.size.split("x"))
     folder = Path(args.references)
     folder.mkdir(parents=True, exist_ok=True)
