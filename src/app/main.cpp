@@ -542,7 +542,7 @@ int main(int argc, char** argv) {
                      "(uncorrelated random numbers); the scene's, else sobol, if omitted")
         ->check(CLI::IsMember({"sobol", "independent"}));
     command->add_option("--noise-threshold", options.noise_threshold,
-                        "Adaptive sampling: a pixel stops taking samples once its estimated relative error is below this (e.g. 0.02; "
+                        "Adaptive sampling: a pixel stops taking samples once its estimated error as displayed (0..1) is below this (e.g. 0.01; "
                         "0: off; docs/adaptive-sampling.md); the scene's, else 0, if omitted");
     command->add_flag("--trust-model-paths", options.trust_model_paths,
                       "Let model files (OBJ, MTL, glTF) name files outside their own folder: absolute paths, '..', links that lead out");

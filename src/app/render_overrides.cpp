@@ -26,7 +26,7 @@ RenderSettings apply_overrides(const SceneDescription& scene, const RenderOverri
   check_range(spelling, overrides.samples_per_pixel, spelling.samples_per_pixel, kMaxSamplesPerPixel);
   check_range(spelling, overrides.max_depth, spelling.max_depth, kMaxDepth);
   if (overrides.noise_threshold && !(*overrides.noise_threshold >= 0 && *overrides.noise_threshold <= kMaxNoiseThreshold))
-    throw InputError(fmt::format("{}{}{}: not a relative error in 0..{} (0: every pixel takes all its samples)", spelling.noise_threshold,
+    throw InputError(fmt::format("{}{}{}: not an error in 0..{} (0: every pixel takes all its samples)", spelling.noise_threshold,
                                  spelling.before_value, *overrides.noise_threshold, kMaxNoiseThreshold));
   RenderSettings settings = scene.render;
   if (overrides.noise_threshold) settings.noise_threshold = *overrides.noise_threshold;

@@ -13,6 +13,7 @@
 #include "base/errors.hpp"
 #include "flat/flat_scene.hpp"
 #include "integrators/integrator_choice.hpp"
+#include "kernel/adaptive.hpp"
 #include "kernel/layers.hpp"
 
 namespace pt {
@@ -24,6 +25,18 @@ struct DeviceDescription {
   int index = -1;
   std::string name;
 };
+
+// Adaptive sampling's judgement of a film held on the host (kernel/adaptive.hpp), pixel by pixel in order: marks the
+// clean pixels stopped and returns how many take samples still.
+inline std::size_t judge_film_on_host(std::span<FilmPixel> film, u32 width, u32 height, u32 samples_done, double threshold) {
+  std::vector<u32> stops(film.size());
+  u32 taking = 0;
+  const AdaptiveJudge judge{film.data(), stops.data(), &taking, width, height, samples_done, threshold};
+  for (u32 i = 0; i < film.size(); ++i) judge(i);
+  const AdaptiveApply apply{film.data(), stops.data()};
+  for (u32 i = 0; i < film.size(); ++i) apply(i);
+  return taking;
+}
 
 template <class T>
 class RenderBackend {
@@ -67,6 +80,17 @@ class RenderBackend {
   // (row-major, the whole image), after upload; the film is left as it was. The sums do not depend on how the
   // samples are split into calls, nor on the device.
   virtual void render_layers(u32 first_sample, u32 sample_count, std::span<LayerPixel> layers) = 0;
+
+  // Adaptive sampling (film/adaptive.hpp): judges every pixel of the film (width x height) still taking samples
+  // after `samples_done` samples, marks those whose error is below `threshold` stopped, and returns how many take
+  // samples still. Where the film is (on a device, or on the host), as judge_film_on_host does.
+  virtual std::size_t stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) {
+    std::vector<FilmPixel> film;
+    read_film(film);
+    const std::size_t taking = judge_film_on_host(film, width, height, samples_done, threshold);
+    write_film(film);
+    return taking;
+  }
 
   // Copies the film to the host (row-major, rows from the top).
   virtual void read_film(std::vector<FilmPixel>& pixels) = 0;

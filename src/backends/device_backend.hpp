@@ -41,6 +41,7 @@ class DeviceBackend final : public RenderBackend<T> {
     const std::size_t pixels = static_cast<std::size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(memory_.allocate(pixels * sizeof(FilmPixel), "allocating the film"));
     film_pixels_ = pixels;
+    judgement_ = nullptr;  // released with the previous upload's memory
     device_.clear(film_, pixels * sizeof(FilmPixel), "clearing the film");
     if (integrator_ == Integrator::kWavefront)
       wavefront_ = std::make_unique<WavefrontIntegrator<D, T>>(device_, view_, film_);
@@ -105,6 +106,21 @@ class DeviceBackend final : public RenderBackend<T> {
     device_.copy_to_host(pixels.data(), film_, film_pixels_ * sizeof(FilmPixel), "reading the film back");
   }
 
+  // On the device: two launches over the pixels and a counter read back, where a copy of the film to the host and
+  // back took longer than the samples between two judgements on a GPU.
+  std::size_t stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) override {
+    if (static_cast<std::size_t>(width) * height != film_pixels_) throw BackendError("a film of another size cannot be judged");
+    if (!judgement_) judgement_ = static_cast<u32*>(memory_.allocate((film_pixels_ + 1) * sizeof(u32), "allocating adaptive sampling's judgement"));
+    u32* taking = judgement_ + film_pixels_;
+    device_.clear(taking, sizeof(u32), "clearing adaptive sampling's count");
+    const u32 pixels = static_cast<u32>(film_pixels_);
+    device_.launch("launching adaptive sampling's judgement", pixels, AdaptiveJudge{film_, judgement_, taking, width, height, samples_done, threshold});
+    device_.launch("launching adaptive sampling's judgement", pixels, AdaptiveApply{film_, judgement_});
+    u32 count = 0;
+    device_.copy_to_host(&count, taking, sizeof(u32), "reading adaptive sampling's count");
+    return count;
+  }
+
   std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) override {
     if (!device_.memory_on_host()) return RenderBackend<T>::film_on_host(copy);
     device_.synchronise("finishing the film");
@@ -136,6 +152,7 @@ class DeviceBackend final : public RenderBackend<T> {
   SceneView<T> view_{};
   FilmPixel* film_ = nullptr;
   std::size_t film_pixels_ = 0;
+  u32* judgement_ = nullptr;  // adaptive sampling: a stop per pixel, then the count of pixels taking samples
   u64 saturations_before_ = 0;  // counted before the last upload
   std::unique_ptr<MegakernelIntegrator<D, T>> megakernel_;
   std::unique_ptr<WavefrontIntegrator<D, T>> wavefront_;  // last: freed before the scene and film it points into

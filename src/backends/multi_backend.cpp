@@ -121,6 +121,13 @@ void MultiBackend<T>::write_film(std::span<const FilmPixel> pixels) {
   std::copy(pixels.begin(), pixels.end(), film_.begin());
 }
 
+// One device judges its own film; bands of several devices or processes come together in the film held here.
+template <class T>
+std::size_t MultiBackend<T>::stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) {
+  if (alone_) return devices_[0]->stop_clean_pixels(width, height, samples_done, threshold);
+  return judge_film_on_host(film_, width, height, samples_done, threshold);
+}
+
 template <class T>
 std::span<const FilmPixel> MultiBackend<T>::film_on_host(std::vector<FilmPixel>& copy) {
   if (alone_) return devices_[0]->film_on_host(copy);

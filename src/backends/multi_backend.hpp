@@ -37,6 +37,7 @@ class MultiBackend final : public RenderBackend<T> {
   }
   void read_film(std::vector<FilmPixel>& pixels) override;
   void write_film(std::span<const FilmPixel> pixels) override;
+  std::size_t stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) override;
   std::span<const FilmPixel> film_on_host(std::vector<FilmPixel>& copy) override;
   std::optional<double> device_seconds() const override;
   std::vector<std::pair<std::string, double>> stage_seconds() const override;

@@ -19,12 +19,12 @@ struct RenderSettings {
   u32 roulette_depth = 3;  // as pbrt, Mitsuba and Cycles do: long paths of little weight cost most of the time
   LightSampling light_sampling = LightSampling::kNextEvent;
   SamplerKind sampler = SamplerKind::kSobol;
-  // Adaptive sampling (film/adaptive.hpp): a pixel whose estimated relative error falls below this stops taking
-  // samples; 0 gives every pixel all its samples.
+  // Adaptive sampling (film/adaptive.hpp): a pixel whose estimated error, as displayed on a 0..1 scale, falls
+  // below this stops taking samples; 0 gives every pixel all its samples.
   double noise_threshold = 0;
 };
 
-// The largest noise threshold taken: a relative error of 100 %.
+// The largest noise threshold taken: an error of the whole display range.
 inline constexpr double kMaxNoiseThreshold = 1.0;
 
 inline const char* sampler_name(SamplerKind kind) { return kind == SamplerKind::kSobol ? "sobol" : "independent"; }

@@ -90,11 +90,11 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     control.checkpoint(backend.film_on_host(saved), done);
     last_checkpoint = Clock::now();
   };
-  // Adaptive sampling: passes end at the sample counts where pixels are judged, and there the film is read, its
-  // clean pixels marked stopped, and written back; the kernels skip stopped pixels.
+  // Adaptive sampling: passes end at the sample counts where pixels are judged, and there the backend marks the
+  // clean pixels of its film stopped; the kernels skip stopped pixels.
   const bool adaptive = scene.noise_threshold > 0;
-  std::vector<FilmPixel> judged;
-  std::size_t taking = adaptive ? pixels_taking_samples(backend.film_on_host(judged)) : static_cast<std::size_t>(pixels);
+  std::vector<FilmPixel> copy;
+  std::size_t taking = adaptive ? pixels_taking_samples(backend.film_on_host(copy)) : static_cast<std::size_t>(pixels);
   u64 traced = 0;  // pixel-samples this run
   while (done < total && taking > 0) {
     // A time limit stops a render only after it has made a pass, so that even a tiny limit leaves an image.
@@ -111,13 +111,8 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     }
     done += pass;
     traced += static_cast<u64>(pass) * taking;
-    if (adaptive && is_judgement(done) && done < total) {
-      const std::span<const FilmPixel> film = backend.film_on_host(judged);
-      if (film.data() != judged.data()) judged.assign(film.begin(), film.end());
-      const std::size_t before = taking;
-      taking = stop_clean_pixels(judged, scene.params.width, scene.params.height, done, scene.noise_threshold);
-      if (taking != before) backend.write_film(judged);
-    }
+    if (adaptive && is_judgement(done) && done < total)
+      taking = backend.stop_clean_pixels(scene.params.width, scene.params.height, done, scene.noise_threshold);
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
     const double rate = elapsed > 0 ? static_cast<double>(traced) / elapsed : 0;
     // Every pixel clean: the render is complete.

@@ -317,7 +317,7 @@ PYBIND11_MODULE(pathtracer, m) {
       "progress(report) is called after every pass with a dict (samples_done, samples_total, elapsed_seconds,\n"
       "samples_per_second); returning False stops the render, which returns the image of the samples done.\n"
       "An exception in it, or Ctrl-C, stops the render and is raised. layers: 'albedo,normal', a list of names, or 'all'.\n"
-      "noise_threshold: adaptive sampling, pixels stop once their estimated relative error is below it.\n"
+      "noise_threshold: adaptive sampling, pixels stop once their estimated error as displayed (0..1) is below it.\n"
       "Returns a Render.");
 
   m.def("write_image", &write_array, py::arg("path"), py::arg("image"),
