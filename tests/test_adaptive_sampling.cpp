@@ -197,7 +197,7 @@ TEST(AdaptiveSampling, ExpectedImageIsTheReference) {
     EXPECT_LE(beyond, 1u) << "threshold " << threshold << ", worst z " << worst;
     EXPECT_LT(worst, 6.0) << "threshold " << threshold;
     for (int c = 0; c < 3; ++c) EXPECT_LT(std::abs(channel_difference[c]), 4 * std::sqrt(channel_variance[c])) << "channel " << c;
-    std::printf("threshold %.2f, at most %u spp: %.2f of the samples; worst block z %.2f, %zu of %zu beyond 4 sigma; image mean z %.2f %.2f %.2f\n",
+    std::printf("threshold %.3f, at most %u spp: %.2f of the samples; worst block z %.2f, %zu of %zu beyond 4 sigma; image mean z %.2f %.2f %.2f\n",
                 threshold, samples, static_cast<double>(film.stats.samples) / (static_cast<double>(samples) * film.pixels().size()), worst, beyond,
                 blocks, channel_difference[0] / std::sqrt(channel_variance[0]), channel_difference[1] / std::sqrt(channel_variance[1]),
                 channel_difference[2] / std::sqrt(channel_variance[2]));

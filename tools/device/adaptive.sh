@@ -16,7 +16,7 @@ fi
 if [[ $steps == *bench* ]]; then
   for scene in cornell-box cornell-smoke meshes; do
     python3 bench/adaptive_equal_error.py "$PT" "scenes/$scene.json" --size 512x512 --reference-spp 16384 --uniform-spp 128 \
-      --adaptive 0.01:1024 --adaptive 0.02:1024 --adaptive 0.04:1024 --runs 3 --references "$OUT/references" -- --backend cuda |
+      --adaptive 0.004:1024 --adaptive 0.008:1024 --adaptive 0.016:1024 --runs 3 --references "$OUT/references" -- --backend cuda |
       tee -a "$OUT/adaptive.txt"
   done
 fi
