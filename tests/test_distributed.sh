@@ -83,7 +83,8 @@ case "$case" in
   mpi-interrupt)
     # mpirun stopped (Ctrl-C or SIGTERM: it sends SIGTERM to every rank): rank 0 gives up the pass under way, saves the
     # checkpoint and writes the image of the passes before; two ranks resume it to the image of one uninterrupted process.
-    spp=(--width 96 --height 74 --spp 3000 --threads 1)
+    # (Small and long: the interrupt comes at the first checkpoint, a pass in; each render of it costs 2-3 s.)
+    spp=(--width 48 --height 37 --spp 3000 --threads 1)
     "$pathtracer" render "$scene" "${spp[@]}" -q -o one.pfm
     "$mpiexec" -np 2 --oversubscribe "$pathtracer" render "$scene" "${spp[@]}" --checkpoint film.ckpt --checkpoint-interval 0.1 \
       -o part.pfm 2>err.txt &

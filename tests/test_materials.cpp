@@ -34,7 +34,7 @@ struct Trial {
 
 template <class T>
 Trial<T> random_trial(test::TestRandom& rng, u32 index) {
-  Trial<T> trial;
+  Trial<T> trial{};
   const Vec3d d = rng.unit_vector();
   Vec3d n = rng.unit_vector();
   if (dot(d, n) > 0) n = -n;
@@ -45,6 +45,12 @@ Trial<T> random_trial(test::TestRandom& rng, u32 index) {
   trial.at.v = static_cast<T>(rng.uniform());
   trial.at.front_face = rng.uniform() < 0.5;
   trial.at.material = 0;
+  // Every field set: a ray leaves from p moved by `offset` along the geometric normal, so an unset offset made the
+  // origin whatever the stack held (a NaN now and then under the sanitizers). No offset here: rays leave from p.
+  trial.at.geometric_normal = trial.at.front_face ? trial.at.normal : -trial.at.normal;
+  trial.at.offset = T(0);
+  trial.at.tangent = Vec3<T>{T(0), T(0), T(0)};
+  trial.at.handedness = T(1);
   trial.random = SampleRandom::make(11, index, 0);
   return trial;
 }

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages pathtracer builds with and Verilator for the intersection units' tests, as root;
+# Installs the Debian 12 packages pathtracer builds with, Verilator for the intersection units' tests and Chromium
+# with its WebDriver for the preview page's tests, as root;
 # does nothing when they are all there.
 #   install-deps.sh            what the release, debug, asan and tsan presets need (the build and the tests)
 #   install-deps.sh fuzz       that and clang 16 with its runtimes, which the fuzz preset compiles with (libFuzzer)
@@ -8,7 +9,8 @@
 set -euo pipefail
 packages=(cmake ninja-build g++ libtbb-dev libfmt-dev libcli11-dev nlohmann-json3-dev libstb-dev libopenexr-dev zlib1g-dev
           libgtest-dev libbenchmark-dev libtinyobjloader-dev libtinygltf-dev assimp-testmodels libopenmpi-dev openmpi-bin
-          python3 python3-dev python3-numpy python3-pytest pybind11-dev verilator)
+          python3 python3-dev python3-numpy python3-pytest pybind11-dev verilator
+          libcpp-httplib-dev chromium chromium-driver python3-selenium)
 for extra in "$@"; do
   case "$extra" in
     fuzz) packages+=(clang-16 libclang-rt-16-dev) ;;

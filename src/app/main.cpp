@@ -35,6 +35,9 @@
 #include "film/film.hpp"
 #include "film/layers.hpp"
 #include "loading/scene_loader.hpp"
+#if PT_HAVE_PREVIEW
+#include "preview/preview_server.hpp"
+#endif
 
 #ifndef PT_VERSION
 #define PT_VERSION "0.0.0"
@@ -69,6 +72,8 @@ struct RenderOptions {
   double checkpoint_interval = 60;
   double time_limit = 0;
   u32 runs = 5;                    // bench only
+  std::optional<int> preview;      // render only: the live preview's port (0: any free one)
+  std::string preview_address = "127.0.0.1";
   bool trust_model_paths = false;  // model files may name files outside their folder
 };
 
@@ -275,27 +280,102 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     if (!options.quiet)
       fmt::print(stderr, "resuming {} at {} of {} samples per pixel\n", options.resume, resumed.samples_done, settings.samples_per_pixel);
   }
+  // The image with its layers: at the end, and where the preview page asks to save now.
+  const auto write_output = [&](const RenderedFilm& film, Phases* timed) {
+    ImageRows rows = film_rows(film);
+    RenderLayers layers;
+    if (!options.layers.empty()) {
+      const auto make_layers = [&] {
+        return render_layers(*backend, flat, film, parse_layer_list(options.layers, "--layers " + clip(options.layers)));
+      };
+      layers = timed ? timed->time("layers", make_layers) : make_layers();
+      rows.channels = layers.image_channels();
+    }
+    if (timed)
+      timed->time("resolve, encode and write", [&] { write_image(options.output, rows); });
+    else
+      write_image(options.output, rows);
+  };
+  ProgressCallback progress = show_progress ? ProgressCallback(draw_progress) : ProgressCallback();
+#if PT_HAVE_PREVIEW
+  // The live preview: frames only while a page watches; its stop is an interrupt's, its "save now" writes the image
+  // of the samples done (and the checkpoint) and renders on.
+  std::unique_ptr<PreviewServer> preview;
+  std::optional<std::string> save_failure;
+  if (options.preview) {
+    // The page's title: the scene's file name (its folder says nothing the person watching needs).
+    const std::string title = options.scene.empty() ? scene.source : std::filesystem::path(options.scene).filename().string();
+    preview = std::make_unique<PreviewServer>(options.preview_address, static_cast<unsigned>(*options.preview), title);
+    fmt::print(stderr, "preview: {} (open it in a browser)\n", preview->url());
+    const auto to_preview = [](const Progress& p) { return PreviewProgress{p.samples_done, p.samples_total, p.elapsed_seconds, p.samples_per_second}; };
+    progress = [&, to_preview, drawn = progress](const Progress& p) {
+      if (drawn) drawn(p);
+      preview->report(to_preview(p));
+    };
+    control.watching = [&] { return preview->watched(); };
+    control.show = [&, to_preview](std::span<const FilmPixel> pixels, const Progress& p) {
+      preview->show(pixels, settings.width, settings.height, to_preview(p));
+    };
+    control.save_requested = [&] { return preview->take_save_request(); };
+    control.save_image = [&](std::span<const FilmPixel> pixels, u32 samples_done) {
+      RenderedFilm now;
+      now.on_backend = pixels;
+      now.width = settings.width;
+      now.height = settings.height;
+      now.samples_done = samples_done;
+      try {
+        write_output(now, nullptr);
+        preview->say(fmt::format("saved {} at {} samples per pixel", options.output, samples_done));
+      } catch (const InputError& e) {
+        // Like a checkpoint's, a failed save does not cost the render; the last line says it failed.
+        preview->say(e.what());
+        if (!options.quiet) fmt::print(stderr, "{}warning: {}; rendering on\n", show_progress ? "\n" : "", e.what());
+      }
+    };
+    control.stop_requested = [&] { return interrupt_signal.load() != 0 || preview->stop_requested(); };
+  }
+  // Whatever ends the render, the page is told how.
+  struct EndPreview {
+    std::unique_ptr<PreviewServer>& preview;
+    PreviewState state = PreviewState::kFailed;
+    std::string message = "the render failed: the program's output says why";
+    ~EndPreview() {
+      if (preview) preview->finish(state, message);
+    }
+  } end_preview{preview};
+#else
+  if (options.preview) throw InputError("--preview: this build has no preview (it needs cpp-httplib: Debian's libcpp-httplib-dev)");
+#endif
   // The film is resolved band by band as the image is encoded, never copied whole (BENCHMARKS.md, memory).
   rendering = true;
-  const RenderedFilm film = render_film(*backend, flat, show_progress ? ProgressCallback(draw_progress) : ProgressCallback(), control);
+  const RenderedFilm film = render_film(*backend, flat, progress, control);
   if (show_progress && film.stopped_early) fmt::print(stderr, "\n");
   const int caught = interrupt_signal.load();
+#if PT_HAVE_PREVIEW
+  const bool stopped_by_page = preview && film.stopped_early && caught == 0 && preview->stop_requested();
+  if (preview && preview->watched())
+    preview->show(film.pixels(), film.width, film.height,
+                  PreviewProgress{film.samples_done, settings.samples_per_pixel, film.stats.seconds, film.stats.samples / std::max(film.stats.seconds, 1e-9)});
+#else
+  const bool stopped_by_page = false;
+#endif
   if (film.samples_done == 0) {
     if (!options.quiet) fmt::print(stderr, "stopped before the first sample: nothing written\n");
+#if PT_HAVE_PREVIEW
+    end_preview.state = PreviewState::kStopped;
+    end_preview.message = "stopped before the first sample: nothing written";
+#endif
     return caught ? 128 + caught : 0;
   }
   phases.add("upload", film.stats.upload_seconds);
   phases.add("render", film.stats.seconds);
   if (const std::optional<double> on_device = backend->device_seconds()) phases.add("  of which on the device", *on_device);
   phases.add("read-back", film.stats.read_back_seconds);
-  ImageRows rows = film_rows(film);
-  RenderLayers layers;
-  if (!options.layers.empty()) {
-    layers = phases.time("layers",
-                         [&] { return render_layers(*backend, flat, film, parse_layer_list(options.layers, "--layers " + clip(options.layers))); });
-    rows.channels = layers.image_channels();
-  }
-  phases.time("resolve, encode and write", [&] { write_image(options.output, rows); });
+  write_output(film, &phases);
+#if PT_HAVE_PREVIEW
+  end_preview.state = film.stopped_early ? PreviewState::kStopped : PreviewState::kFinished;
+  end_preview.message = fmt::format("wrote {}", options.output);
+#endif
   if (!options.quiet) {
     const RenderStats& s = film.stats;
     fmt::print(stderr, "wrote {}: {:.3f} s, {}samples/s, {}rays/s, {} non-finite samples dropped\n", options.output, s.seconds,
@@ -306,7 +386,10 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     for (const auto& [name, share] : shares) fmt::print(stderr, "  {:5.1f}% of the samples: {}\n", all ? 100.0 * share / all : 0.0, name);
     if (film.stopped_early)
       fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n",
-                 caught ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM") : "the time limit", film.samples_done, settings.samples_per_pixel,
+                 caught                ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM")
+                 : stopped_by_page     ? "the preview page"
+                                       : "the time limit",
+                 film.samples_done, settings.samples_per_pixel,
                  options.checkpoint.empty() || checkpoint_failure ? "" : fmt::format("; film saved to {}", options.checkpoint));
     if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
   }
@@ -573,6 +656,14 @@ int main(int argc, char** argv) {
   render->add_option("--layers", options.layers,
                      "Render layers written as channels of the OpenEXR image: albedo, normal, depth, samples (comma-separated), or all");
   render->add_option("--resume", options.resume, "Go on from a film saved by --checkpoint (same scene and settings; --spp may be raised)");
+  render
+      ->add_option("--preview", options.preview,
+                   "Show the render converging in a browser: serve a page on this port (0: any free one), with 'save now' and 'stop' (docs/preview.md)")
+      ->expected(0, 1)
+      ->default_str("8470")
+      ->check(CLI::Range(0, 65535));
+  render->add_option("--preview-address", options.preview_address, "Address the preview listens on (another than loopback lets other machines in)")
+      ->capture_default_str();
   bench->add_option("--runs", options.runs, "Timed runs (the median is reported)")->check(CLI::Range(1u, 1000u))->capture_default_str();
 
   NumericsOptions numerics_options;

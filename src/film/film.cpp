@@ -117,8 +117,14 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     const double rate = elapsed > 0 ? static_cast<double>(traced) / elapsed : 0;
     // Every pixel clean: the render is complete.
     if (taking == 0) done = total;
-    if (progress) progress(Progress{done, total, elapsed, rate});
-    if (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds) save();
+    const Progress report{done, total, elapsed, rate};
+    if (progress) progress(report);
+    if (control.watching && control.watching()) control.show(backend.film_on_host(saved), report);
+    const bool save_now = control.save_requested && control.save_requested();
+    if (save_now && done < total) control.save_image(backend.film_on_host(saved), done);
+    if ((save_now && done < total) ||
+        (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds))
+      save();
     // Passes of about half a second by default: often enough to report and to stop (mpirun kills ranks 1 s after
     // passing on a SIGTERM, so rank 0 must end its pass, save and write within it), rarely enough to cost nothing.
     // A backend that gives up a pass on a stop may ask for longer ones. (Under adaptive sampling the pace is that of

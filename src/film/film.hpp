@@ -46,6 +46,14 @@ struct RenderControl {
   std::function<void(std::span<const FilmPixel>, u32 samples_done)> checkpoint;
   std::span<const FilmPixel> start_film;  // a resumed render: the film to go on from, holding
   u32 start_samples = 0;                  // this many samples per pixel
+  // Someone watching the film converge (the preview page): after every pass where `watching()` says a frame is
+  // wanted, `show` is given the film (valid during the call) and the progress. Unwatched, the film stays put.
+  std::function<bool()> watching;
+  std::function<void(std::span<const FilmPixel>, const Progress&)> show;
+  // "Save now": where `save_requested()` says so after a pass, `save_image` is given the film of the samples done
+  // (and the checkpoint, where there is one, is saved too); the render goes on.
+  std::function<bool()> save_requested;
+  std::function<void(std::span<const FilmPixel>, u32 samples_done)> save_image;
 };
 
 // The mean of each pixel's finite samples (black where a pixel has none).

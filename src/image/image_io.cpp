@@ -422,17 +422,20 @@ void store_be32(unsigned char* out, u32 v) {
   for (int i = 0; i < 4; ++i) out[i] = static_cast<unsigned char>(v >> (24 - 8 * i));
 }
 
+// Where an encoded image's bytes go: a file being written, or memory.
+using ByteSink = std::function<void(const void* data, std::size_t size)>;
+
 // One PNG chunk: length, type, data, CRC of type and data.
-void write_png_chunk(AtomicFile& file, const char* type, const unsigned char* data, std::size_t size) {
+void write_png_chunk(const ByteSink& file, const char* type, const unsigned char* data, std::size_t size) {
   unsigned char head[8], crc[4];
   store_be32(head, static_cast<u32>(size));
   std::memcpy(head + 4, type, 4);
   uLong sum = crc32(0, head + 4, 4);
   if (size > 0) sum = crc32(sum, data, static_cast<uInt>(size));  // a null buffer would reset the sum to its start
   store_be32(crc, static_cast<u32>(sum));
-  file.write(head, sizeof(head));
-  file.write(data, size);
-  file.write(crc, sizeof(crc));
+  file(head, sizeof(head));
+  if (size > 0) file(data, size);
+  file(crc, sizeof(crc));
 }
 
 // PNG, 8-bit sRGB: each band of rows is converted, filtered (the Sub filter: each byte less the one three to its
@@ -441,7 +444,7 @@ void write_png_chunk(AtomicFile& file, const char* type, const unsigned char* da
 // (as pigz does); the stream's Adler-32 is combined from the bands'. About ten times faster than stb's encoder on
 // a 1200x800 render. Bands go a group at a time, each group written out before the next is made, so the memory
 // held is a few bands' worth whatever the image's size.
-void write_png(AtomicFile& file, const ImageRows& image) {
+void write_png(const ByteSink& file, const ImageRows& image) {
   const std::size_t row_bytes = 1 + 3 * static_cast<std::size_t>(image.width);  // the filter byte, then RGB
   constexpr u32 kBandRows = 32;
   const u32 bands = (image.height + kBandRows - 1) / kBandRows;
@@ -491,7 +494,7 @@ void write_png(AtomicFile& file, const ImageRows& image) {
     deflateEnd(&stream);
   };
 
-  file.write("\x89PNG\r\n\x1a\n", 8);
+  file("\x89PNG\r\n\x1a\n", 8);
   unsigned char header[13] = {0, 0, 0, 0, 0, 0, 0, 0, 8, 2, 0, 0, 0};  // 8 bits, truecolour, deflate, adaptive filtering, no interlace
   store_be32(header, image.width);
   store_be32(header + 4, image.height);
@@ -616,7 +619,7 @@ AtomicFile write_image_unpublished(const std::filesystem::path& path, const Imag
   AtomicFile file(path, "the image");
   try {
     switch (format) {
-      case ImageFormat::kPng: write_png(file, image); break;
+      case ImageFormat::kPng: write_png([&](const void* data, std::size_t size) { file.write(data, size); }, image); break;
       case ImageFormat::kPfm: write_pfm(file, image); break;
       case ImageFormat::kExr: write_exr(file, image); break;
     }
@@ -630,5 +633,11 @@ AtomicFile write_image_unpublished(const std::filesystem::path& path, const Imag
 void write_image(const std::filesystem::path& path, const ImageRows& image) { write_image_unpublished(path, image).publish(); }
 
 void write_image(const std::filesystem::path& path, const LinearImage& image) { write_image(path, rows_of(image)); }
+
+std::vector<u8> encode_png(const ImageRows& image) {
+  std::vector<u8> bytes;
+  write_png([&](const void* data, std::size_t size) { bytes.insert(bytes.end(), static_cast<const u8*>(data), static_cast<const u8*>(data) + size); }, image);
+  return bytes;
+}
 
 }  // namespace pt

@@ -103,6 +103,9 @@ void write_image(const std::filesystem::path& path, const LinearImage& image);
 // when the caller publishes it (with other files, all or nothing).
 AtomicFile write_image_unpublished(const std::filesystem::path& path, const ImageRows& image);
 
+// The PNG file write_image writes, in memory (what a preview page is sent).
+std::vector<u8> encode_png(const ImageRows& image);
+
 // The sRGB transfer functions.
 float srgb_to_linear(float encoded);
 float linear_to_srgb(float linear);
