@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
-"""What the live preview costs a render: the same render with no preview, with the preview and nobody watching, and
-with a page open in headless Chromium (selenium, as the tests drive it), run in turns, the median samples/s of each.
+"""What the live preview costs a render: the same render with no preview, with the preview and nobody watching, with
+a client asking what the page asks (no browser: the program's own cost), with no preview but headless Chromium
+open on a blank page (what a browser costs by itself on the same cores), and with the preview's page open in that
+Chromium (selenium, as the tests drive it), run in turns; the median samples/s of each.
 
   bench/preview_cost.py PATHTRACER SCENE [--runs 5] [--size 800x480] [--spp 64] [-- extra render options]
 
@@ -34,13 +36,32 @@ def start_browser():
     return webdriver.Chrome(service=ChromeService(executable_path="/usr/bin/chromedriver"), options=options)
 
 
+def poll_like_the_page(url, done):
+    """What the page asks for, without a browser: the state four times a second, each new frame once."""
+    import json
+    import urllib.request
+    shown = 0
+    while not done.is_set():
+        try:
+            with urllib.request.urlopen(url + "status") as response:
+                frame = json.load(response)["frame"]
+            if frame > shown:
+                with urllib.request.urlopen(url + "frame.png") as response:
+                    response.read()
+                shown = frame
+        except OSError:
+            return
+        done.wait(0.25)
+
+
 def run(program, scene, args, variant, browser, output):
     command = [program, "render", scene, *args, "-o", output]
-    if variant != "none":
+    if variant not in ("none", "browser idle"):
         command += ["--preview", "0"]
     process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
     lines = []
-    opened = threading.Event()
+    done = threading.Event()
+    pollers = []
 
     def collect():
         for line in process.stderr:
@@ -48,12 +69,17 @@ def run(program, scene, args, variant, browser, output):
             match = re.match(r"preview: (http://\S+)", line)
             if match and variant == "watched":
                 browser.get(match.group(1))
-                opened.set()
+            elif match and variant == "polled":
+                pollers.append(threading.Thread(target=poll_like_the_page, args=(match.group(1), done)))
+                pollers[-1].start()
 
     reader = threading.Thread(target=collect)
     reader.start()
     process.wait()
+    done.set()
     reader.join()
+    for poller in pollers:
+        poller.join()
     if process.returncode != 0:
         raise SystemExit("".join(lines))
     return parse_rate("".join(lines))
@@ -71,7 +97,7 @@ def main():
     width, height = options.size.split("x")
     args = ["--width", width, "--height", height, "--spp", str(options.spp), *options.extra]
     browser = start_browser()
-    rates = {"none": [], "unwatched": [], "watched": []}
+    rates = {"none": [], "unwatched": [], "polled": [], "browser idle": [], "watched": []}
     try:
         with tempfile.TemporaryDirectory() as folder:
             output = f"{folder}/image.png"
@@ -85,7 +111,7 @@ def main():
     base = statistics.median(rates["none"])
     for variant, values in rates.items():
         median = statistics.median(values)
-        print(f"{variant:10s} median {median / 1e6:8.3f} Msamples/s  ({median / base:.3f} of no preview; runs: "
+        print(f"{variant:12s} median {median / 1e6:8.3f} Msamples/s  ({median / base:.3f} of no preview; runs: "
               + ", ".join(f"{v / 1e6:.3f}" for v in values) + ")")
 
 

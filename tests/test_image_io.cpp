@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -299,6 +300,28 @@ TEST(TextureImages, SrgbCurvesAreInverse) {
   }
   EXPECT_NEAR(linear_to_srgb(0.5f), 0.7354f, 1e-4f);
   EXPECT_NEAR(srgb_to_linear(0.5f), 0.2140f, 1e-4f);
+}
+
+// The PNG writer's bytes come from a table of the 255 values where the byte steps up, not from the power: they
+// must be the power's own, rounded. Checked where they could differ (a few hundred floats either side of every
+// step, in their bit order), at a million values spread over 0..1, and beyond it.
+TEST(ImageOutput, SrgbByteIsTheRoundedTransferFunction) {
+  u32 checked = 0;
+  for (int byte = 0; byte < 256; ++byte) {
+    // The first float at or above the value whose curve is halfway to the next byte, and its neighbours.
+    const float middle = srgb_to_linear((byte + 0.5f) / 255.0f);
+    const u32 bits = std::bit_cast<u32>(std::min(middle, 1.0f));
+    for (u32 k = bits > 300 ? bits - 300 : 0; k <= bits + 300 && k <= std::bit_cast<u32>(1.0f); ++k, ++checked)
+      ASSERT_EQ(linear_to_srgb_byte(std::bit_cast<float>(k)), png_byte(std::bit_cast<float>(k))) << std::bit_cast<float>(k);
+  }
+  for (u32 i = 0; i <= 1000000; ++i, ++checked) {
+    const float x = static_cast<float>(i) / 1000000.0f;
+    ASSERT_EQ(linear_to_srgb_byte(x), png_byte(x)) << x;
+  }
+  for (const float x : {-1.0f, -0.0f, 0.0f, 1e-30f, 1.0f, 1.5f, 1e30f, std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                        std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::denorm_min()})
+    EXPECT_EQ(linear_to_srgb_byte(x), png_byte(x)) << x;
+  EXPECT_GT(checked, 1100000u);
 }
 
 TEST(TextureImages, MissingOrInvalidFilesAreInputErrors) {

@@ -78,6 +78,12 @@ TEST(PreviewServer, AnswersEverythingUnexpectedWithA4xx) {
   EXPECT_EQ(status_of(client.Get("/status", httplib::Headers{{"Host", "localhost:" + std::to_string(server.port())}})), 200);
 }
 
+// A frame is the PNG the program would write of the film (rows stored, not compressed).
+std::string expected_png(const std::vector<FilmPixel>& film, u32 width, u32 height) {
+  const std::vector<u8> png = encode_png(rows_of(resolve_film(film, width, height)), 0);
+  return std::string(png.begin(), png.end());
+}
+
 TEST(PreviewServer, FrameIsThePngOfTheFilmShown) {
   PreviewServer server("127.0.0.1", 0, "test scene");
   httplib::Client client = client_of(server);
@@ -88,8 +94,7 @@ TEST(PreviewServer, FrameIsThePngOfTheFilmShown) {
   EXPECT_EQ(frame->get_header_value("Content-Type"), "image/png");
   EXPECT_EQ(frame->get_header_value("X-Frame"), "1");
   EXPECT_EQ(frame->get_header_value("X-Frame-Samples"), "4");
-  const std::vector<u8> expected = encode_png(rows_of(resolve_film(film, 13, 7)));
-  EXPECT_EQ(frame->body, std::string(expected.begin(), expected.end()));
+  EXPECT_EQ(frame->body, expected_png(film, 13, 7));
   const nlohmann::json state = nlohmann::json::parse(client.Get("/status")->body);
   EXPECT_EQ(state["frame"], 1);
   EXPECT_EQ(state["samples_done"], 4);
@@ -101,8 +106,7 @@ TEST(PreviewServer, FrameIsThePngOfTheFilmShown) {
   const auto second = client.Get("/frame.png");
   ASSERT_EQ(status_of(second), 200);
   EXPECT_EQ(second->get_header_value("X-Frame"), "2");
-  const std::vector<u8> expected_later = encode_png(rows_of(resolve_film(later, 13, 7)));
-  EXPECT_EQ(second->body, std::string(expected_later.begin(), expected_later.end()));
+  EXPECT_EQ(second->body, expected_png(later, 13, 7));
 }
 
 TEST(PreviewServer, ActionsReachTheRenderOnceAndNotAfterItEnds) {
@@ -198,6 +202,34 @@ TEST(PreviewServer, EndWaitsForAWatchingPageToSeeIt) {
   page.join();
   EXPECT_TRUE(told.load());
   EXPECT_LT(waited, 5.0);
+}
+
+// A page asks for the state with the version it has seen: the answer comes when there is news (a pass), not
+// before; and a page waiting so counts as watching.
+TEST(PreviewServer, StateRequestWaitsForNews) {
+  PreviewServer server("127.0.0.1", 0, "test scene");
+  httplib::Client client = client_of(server);
+  const nlohmann::json first = nlohmann::json::parse(client.Get("/status")->body);
+  const std::string seen = std::to_string(first["version"].get<u64>());
+  std::thread pass([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    EXPECT_TRUE(server.watched()) << "a page waiting for news watches, though its last request began 2.5 s ago";
+    server.report(PreviewProgress{3, 10, 1, 100});
+  });
+  const auto start = std::chrono::steady_clock::now();
+  const auto news = client.Get("/status", httplib::Headers{{"X-Pathtracer-Seen", seen}});
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  pass.join();
+  ASSERT_EQ(status_of(news), 200);
+  EXPECT_GT(waited, 2.0);
+  EXPECT_LT(waited, 8.0);
+  const nlohmann::json state = nlohmann::json::parse(news->body);
+  EXPECT_EQ(state["samples_done"], 3);
+  EXPECT_GT(state["version"].get<u64>(), first["version"].get<u64>());
+  // An old version is answered at once.
+  const auto again = std::chrono::steady_clock::now();
+  EXPECT_EQ(status_of(client.Get("/status", httplib::Headers{{"X-Pathtracer-Seen", seen}})), 200);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - again).count(), 1.0);
 }
 
 TEST(PreviewServer, BusyPortIsOneClearError) {

@@ -103,11 +103,15 @@ void write_image(const std::filesystem::path& path, const LinearImage& image);
 // when the caller publishes it (with other files, all or nothing).
 AtomicFile write_image_unpublished(const std::filesystem::path& path, const ImageRows& image);
 
-// The PNG file write_image writes, in memory (what a preview page is sent).
-std::vector<u8> encode_png(const ImageRows& image);
+// The PNG file write_image writes, in memory, at zlib's `compression_level` (write_image's is 1, the fastest that
+// compresses; 0 stores the rows as they are, for a preview page on this machine: no time spent making it smaller).
+std::vector<u8> encode_png(const ImageRows& image, int compression_level = 1);
 
 // The sRGB transfer functions.
 float srgb_to_linear(float encoded);
 float linear_to_srgb(float linear);
+// The 8-bit sRGB value of a linear one as PNGs are written: lround(linear_to_srgb(clamp(linear, 0, 1)) * 255), and 0
+// where it is not finite; the same bytes, found without a power.
+u8 linear_to_srgb_byte(float linear);
 
 }  // namespace pt

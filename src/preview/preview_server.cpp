@@ -22,8 +22,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A page that asked within this long is still watching.
+// A page that asked within this long, or that is waiting for news, is still watching.
 constexpr double kWatchingSeconds = 2.0;
+
+// A page asks for the state with the version it has seen (this header); the answer waits until there is a newer one,
+// at most this long. So a page wakes once a pass, not on a timer.
+constexpr const char* kSeenHeader = "X-Pathtracer-Seen";
+constexpr double kLongestWait = 10.0;
 
 // The header the page's scripts send with an action. A form or a link of another site cannot set it, and a script
 // of another origin that tries must ask first (a CORS preflight), which is refused.
@@ -54,14 +59,14 @@ struct PreviewServer::Shared {
   std::condition_variable changed;
   Clock::time_point last_request{};  // by a page: the state or a frame
   bool ever_watched = false;
+  int waiting_pages = 0;     // requests for the state waiting for news
+  u64 version = 1;           // bumped by every change a page would show
+  bool closing = false;      // the server is stopping: waiting requests answer at once
   bool ended_status_sent = false;  // a page has been told how the render ended
-  // The newest frame: its number (0: none yet), its samples per pixel, its pixels resolved (linear), and its PNG
-  // once a page has asked for it (encoded by the request's thread, not the render's).
+  // The newest frame: its number (0: none yet), its samples per pixel and its PNG.
   u64 frame = 0;
   u32 frame_samples = 0;
-  std::shared_ptr<const LinearImage> image;
   std::shared_ptr<const std::vector<u8>> png;
-  u64 png_frame = 0;
   u64 last_frame_sent = 0;
   PreviewProgress progress;
   PreviewState state = PreviewState::kRendering;
@@ -72,7 +77,8 @@ struct PreviewServer::Shared {
   nlohmann::json status() const {
     const double fraction = progress.samples_total > 0 ? static_cast<double>(progress.samples_done) / progress.samples_total : 0;
     const double left = state == PreviewState::kRendering && fraction > 0 ? progress.elapsed_seconds * (1 - fraction) / fraction : 0;
-    return nlohmann::json{{"title", title},
+    return nlohmann::json{{"version", version},
+                          {"title", title},
                           {"state", state_name(state)},
                           {"frame", frame},
                           {"frame_samples", frame_samples},
@@ -89,6 +95,16 @@ struct PreviewServer::Shared {
     last_request = Clock::now();
     ever_watched = true;
   }
+
+  bool watching() const {
+    return waiting_pages > 0 || (ever_watched && std::chrono::duration<double>(Clock::now() - last_request).count() < kWatchingSeconds);
+  }
+
+  // Called with the mutex held, after a change.
+  void changed_now() {
+    version += 1;
+    changed.notify_all();
+  }
 };
 
 PreviewServer::PreviewServer(const std::string& address, unsigned port, std::string title) : shared_(std::make_unique<Shared>()) {
@@ -97,7 +113,8 @@ PreviewServer::PreviewServer(const std::string& address, unsigned port, std::str
   s.title = std::move(title);
   httplib::Server& server = s.server;
   // Few threads: a page makes one request at a time, and the render has the cores.
-  server.new_task_queue = [] { return new httplib::ThreadPool(4); };
+  // Threads enough for several pages, each holding a request for the state open and fetching a frame.
+  server.new_task_queue = [] { return new httplib::ThreadPool(16); };
   server.set_keep_alive_timeout(2);
   server.set_payload_max_length(1024);
 
@@ -130,20 +147,28 @@ PreviewServer::PreviewServer(const std::string& address, unsigned port, std::str
 
   server.Get("/", [&s, no_store](const httplib::Request&, httplib::Response& response) {
     no_store(response);
-    response.set_header("Content-Security-Policy", "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' blob:");
+    response.set_header("Content-Security-Policy", "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self'");
     response.set_content(std::string(kPreviewPage), "text/html; charset=utf-8");
     (void)s;
   });
-  server.Get("/status", [&s, no_store](const httplib::Request&, httplib::Response& response) {
-    std::lock_guard lock(s.mutex);
+  server.Get("/status", [&s, no_store](const httplib::Request& request, httplib::Response& response) {
+    std::unique_lock lock(s.mutex);
     s.watched_now();
+    const std::string seen = request.get_header_value(kSeenHeader);
+    if (!seen.empty() && seen == std::to_string(s.version) && !s.closing) {
+      s.waiting_pages += 1;
+      s.changed.wait_for(lock, std::chrono::duration<double>(kLongestWait), [&] { return s.closing || std::to_string(s.version) != seen; });
+      // A pass reports its progress and then its frame: wait a moment for the frame, so that one answer carries both.
+      if (!s.closing) s.changed.wait_for(lock, std::chrono::milliseconds(30), [&] { return s.closing; });
+      s.waiting_pages -= 1;
+      s.watched_now();
+    }
     if (s.state != PreviewState::kRendering) s.ended_status_sent = true;
     no_store(response);
     response.set_content(s.status().dump(), "application/json");
     s.changed.notify_all();
   });
   server.Get("/frame.png", [&s, no_store](const httplib::Request&, httplib::Response& response) {
-    std::shared_ptr<const LinearImage> image;
     std::shared_ptr<const std::vector<u8>> png;
     u64 frame = 0;
     u32 samples = 0;
@@ -152,26 +177,13 @@ PreviewServer::PreviewServer(const std::string& address, unsigned port, std::str
       s.watched_now();
       frame = s.frame;
       samples = s.frame_samples;
-      image = s.image;
-      if (s.png_frame == frame) png = s.png;
+      png = s.png;
+      if (png) s.last_frame_sent = std::max(s.last_frame_sent, frame);
     }
-    if (!image) {
+    if (!png) {
       response.status = 404;
       response.set_content("no frame yet: the first pass is under way\n", "text/plain");
       return;
-    }
-    if (!png) {
-      auto encoded = std::make_shared<const std::vector<u8>>(encode_png(rows_of(*image)));
-      std::lock_guard lock(s.mutex);
-      if (s.frame == frame) {
-        s.png = encoded;
-        s.png_frame = frame;
-      }
-      png = std::move(encoded);
-    }
-    {
-      std::lock_guard lock(s.mutex);
-      s.last_frame_sent = std::max(s.last_frame_sent, frame);
     }
     s.changed.notify_all();
     no_store(response);
@@ -199,6 +211,7 @@ PreviewServer::PreviewServer(const std::string& address, unsigned port, std::str
           return;
         }
         (save ? s.save_request : s.stop_request) = true;
+        s.changed_now();
       }
       no_store(response);
       response.set_content(save ? "saving after the pass under way\n" : "stopping after the pass under way\n", "text/plain");
@@ -228,6 +241,11 @@ PreviewServer::PreviewServer(const std::string& address, unsigned port, std::str
 }
 
 PreviewServer::~PreviewServer() {
+  {
+    std::lock_guard lock(shared_->mutex);
+    shared_->closing = true;
+    shared_->changed.notify_all();
+  }
   shared_->server.stop();
   if (shared_->thread.joinable()) shared_->thread.join();
 }
@@ -242,27 +260,37 @@ std::string PreviewServer::url() const {
 
 bool PreviewServer::watched() const {
   std::lock_guard lock(shared_->mutex);
-  return shared_->ever_watched && std::chrono::duration<double>(Clock::now() - shared_->last_request).count() < kWatchingSeconds;
+  return shared_->watching();
 }
 
+// The frame is made here, between passes, while the render's threads wait: resolved a band of rows at a time straight
+// into the PNG's bytes, by every core, stored rather than compressed (a page on this machine reads it as fast as
+// it would inflate it). A second copy of the film, or work beside the render's threads, would cost more. (Raw
+// pixels put on the page's canvas cost the browser as much as decoding this.)
 void PreviewServer::show(std::span<const FilmPixel> film, u32 width, u32 height, const PreviewProgress& progress) {
-  auto image = std::make_shared<const LinearImage>(resolve_film(film, width, height));
+  RenderedFilm view;
+  view.on_backend = film;
+  view.width = width;
+  view.height = height;
+  auto png = std::make_shared<const std::vector<u8>>(encode_png(film_rows(view), 0));
   std::lock_guard lock(shared_->mutex);
-  shared_->image = std::move(image);
-  shared_->png.reset();
+  shared_->png = std::move(png);
   shared_->frame += 1;
   shared_->frame_samples = progress.samples_done;
   shared_->progress = progress;
+  shared_->changed_now();
 }
 
 void PreviewServer::report(const PreviewProgress& progress) {
   std::lock_guard lock(shared_->mutex);
   shared_->progress = progress;
+  shared_->changed_now();
 }
 
 void PreviewServer::say(std::string message) {
   std::lock_guard lock(shared_->mutex);
   shared_->message = std::move(message);
+  shared_->changed_now();
 }
 
 bool PreviewServer::take_save_request() {
@@ -280,8 +308,8 @@ void PreviewServer::finish(PreviewState state, std::string message, double linge
   std::unique_lock lock(s.mutex);
   s.state = state;
   s.message = std::move(message);
-  const bool watching =
-      s.ever_watched && std::chrono::duration<double>(Clock::now() - s.last_request).count() < kWatchingSeconds;
+  s.changed_now();
+  const bool watching = s.watching();
   // A page watching is told how the render ended and fetches the last frame; stop once it has, or after the linger.
   if (watching)
     s.changed.wait_for(lock, std::chrono::duration<double>(linger_seconds), [&] { return s.ended_status_sent && s.last_frame_sent >= s.frame; });
