@@ -18,7 +18,7 @@ namespace pt {
 namespace {
 
 // Why not bitwise: the GPU evaluates sin, cos, atan2, asin and log with other (equally accurate) algorithms than
-// glibc, and nvcc contracts a*b+c into fused multiply-adds. Both change the last bits of some values; where such a
+// glibc, and nvcc contracts a*b+c into fused multiply-adds (unless built with -DPT_CUDA_FMAD=OFF). Either changes the last bits of some values; where such a
 // difference flips a discrete decision (a grazing hit, the Fresnel choice, a Russian-roulette draw near q) that
 // sample follows another path and becomes an independent sample. So the bound is statistical:
 //  - same-seed images must be much closer than two CPU images of different seeds (RMSE at most a quarter), which
