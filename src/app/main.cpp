@@ -301,7 +301,6 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
   // The live preview: frames only while a page watches; its stop is an interrupt's, its "save now" writes the image
   // of the samples done (and the checkpoint) and renders on.
   std::unique_ptr<PreviewServer> preview;
-  std::optional<std::string> save_failure;
   if (options.preview) {
     // The page's title: the scene's file name (its folder says nothing the person watching needs).
     const std::string title = options.scene.empty() ? scene.source : std::filesystem::path(options.scene).filename().string();

@@ -39,6 +39,10 @@ LinearImage resolve_film(std::span<const FilmPixel> film, u32 width, u32 height)
   return image;
 }
 
+ImageRows film_rows(std::span<const FilmPixel> film, u32 width, u32 height) {
+  return ImageRows{width, height, [film, width](u32 first_row, u32 row_count, float* rgb) { resolve_rows(film, width, first_row, row_count, rgb); }, {}};
+}
+
 ImageRows film_rows(const RenderedFilm& film) {
   return ImageRows{film.width,
                    film.height,
@@ -85,9 +89,16 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
   bool stopped = false;
   const std::function<bool()> stop = control.stop_requested ? control.stop_requested : [] { return false; };
   std::vector<FilmPixel> saved;
+  // The film on the host, read from the backend at most once between two passes (a GPU's is copied back), for
+  // whichever of the preview, "save now" and the checkpoint want it.
+  std::span<const FilmPixel> film_read;
+  const auto film_now = [&] {
+    if (film_read.empty()) film_read = backend.film_on_host(saved);
+    return film_read;
+  };
   const auto save = [&] {
     if (!control.checkpoint) return;
-    control.checkpoint(backend.film_on_host(saved), done);
+    control.checkpoint(film_now(), done);
     last_checkpoint = Clock::now();
   };
   // Adaptive sampling: passes end at the sample counts where pixels are judged, and there the backend marks the
@@ -105,6 +116,7 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     pass = std::min(pass, total - done);
     if (adaptive) pass = std::min(pass, next_judgement(done) - done);
     // A pass given up on a stop leaves the film as it was before it: the render ends with the samples done.
+    film_read = {};
     if (!backend.render_unless(done, pass, stop)) {
       stopped = true;
       break;
@@ -119,9 +131,9 @@ RenderedFilm render_film(RenderBackend<T>& backend, const FlatScene<T>& scene, c
     if (taking == 0) done = total;
     const Progress report{done, total, elapsed, rate};
     if (progress) progress(report);
-    if (control.watching && control.watching()) control.show(backend.film_on_host(saved), report);
+    if (control.watching && control.watching()) control.show(film_now(), report);
     const bool save_now = control.save_requested && control.save_requested();
-    if (save_now && done < total) control.save_image(backend.film_on_host(saved), done);
+    if (save_now && done < total) control.save_image(film_now(), done);
     if ((save_now && done < total) ||
         (control.checkpoint_interval_seconds > 0 && done < total && seconds_since(last_checkpoint) >= control.checkpoint_interval_seconds))
       save();

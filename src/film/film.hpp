@@ -77,6 +77,8 @@ struct RenderedFilm {
 // The film resolved a band of rows at a time, as the image writers ask for it: the film (40 bytes a pixel) is the
 // only full-size buffer while an image is written. Refers to `film`, which must outlive it.
 ImageRows film_rows(const RenderedFilm& film);
+// The same of a film held elsewhere (valid while the rows are read).
+ImageRows film_rows(std::span<const FilmPixel> film, u32 width, u32 height);
 
 struct RenderResult {
   LinearImage image;

@@ -268,11 +268,7 @@ bool PreviewServer::watched() const {
 // it would inflate it). A second copy of the film, or work beside the render's threads, would cost more. (Raw
 // pixels put on the page's canvas cost the browser as much as decoding this.)
 void PreviewServer::show(std::span<const FilmPixel> film, u32 width, u32 height, const PreviewProgress& progress) {
-  RenderedFilm view;
-  view.on_backend = film;
-  view.width = width;
-  view.height = height;
-  auto png = std::make_shared<const std::vector<u8>>(encode_png(film_rows(view), 0));
+  auto png = std::make_shared<const std::vector<u8>>(encode_png(film_rows(film, width, height), 0));
   std::lock_guard lock(shared_->mutex);
   shared_->png = std::move(png);
   shared_->frame += 1;
