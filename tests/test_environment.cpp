@@ -6,6 +6,7 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -447,6 +448,32 @@ TEST(Environment, ConstantMapRendersAsConstantBackground) {
   const std::vector<test::BlockDifference> blocks = test::compare_block_means(map, constant, 8, 4.0, 1e-6, 1e-6);
   EXPECT_TRUE(blocks.front().within) << test::describe_blocks(blocks, 4, "map", "constant");
   EXPECT_GT(constant.image_mean(0), 0.1);
+}
+
+// Whether the default light sampling (auto) samples the background as a light follows from how noisily scattering
+// alone would find it: a sun makes the cosine's estimate of the irradiance vary by hundreds of times its mean
+// squared (this one fills a texel of 0.07 sr), a uniform map not at all, a smooth gradient little (flat/environment.cpp).
+TEST(Environment, AutoSamplesASunAndLeavesAnEvenMapToScattering) {
+  const FlatScene<float> sun = scene_with<float>(sun_map());
+  EXPECT_GT(sun.background_scattering_variance, 100 * kBackgroundSamplingVariance);
+  EXPECT_NE(sun.background_light, kNoLight);
+  EXPECT_EQ(sun.params.next_event, 1u);
+  EnvironmentSettings even = sun_map();
+  std::fill(even.rgb.begin(), even.rgb.end(), 0.7f);
+  const FlatScene<float> flat = scene_with<float>(even);
+  EXPECT_LT(flat.background_scattering_variance, 0.01);
+  EXPECT_EQ(flat.background_light, kNoLight);
+  // Asked for by name, the even map is a light all the same.
+  SceneDescription scene = test::generated_scene({0, 0, 3});
+  scene.environment = even;
+  scene.render.light_sampling = LightSampling::kNextEvent;
+  EXPECT_NE(test::flatten<float>(scene).background_light, kNoLight);
+  // The measure follows the contrast: a map whose one bright texel is twice its sky varies less than the sun's.
+  EnvironmentSettings soft = even;
+  soft.rgb[3 * (kSunRow * kWidth + kSunColumn)] = soft.rgb[3 * (kSunRow * kWidth + kSunColumn) + 1] = 1.4f;
+  const double soft_variance = scene_with<float>(soft).background_scattering_variance;
+  EXPECT_GT(soft_variance, flat.background_scattering_variance);
+  EXPECT_LT(soft_variance, kBackgroundSamplingVariance);
 }
 
 }  // namespace

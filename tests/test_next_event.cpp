@@ -1,6 +1,7 @@
 // Next-event estimation with multiple importance sampling changes the noise, never the expected value: against
 // paths that find lights only by scattering, on every shipped scene and on every kind of light; and the light
 // table picks each light by its share of the power.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -229,12 +230,99 @@ TEST(LightTable, BackgroundIsALightWhereItShines) {
     "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}])";
   const SceneDescription dark = test::parse(R"({"background": {"type": "constant", "color": [0, 0, 0]}, )" + objects + "}");
   const SceneDescription sky = test::parse(R"({"background": {"type": "sky", "horizon": [1, 1, 1], "zenith": [0.5, 0.7, 1]}, )" + objects + "}");
-  EXPECT_TRUE(flatten_scene<float>(dark, dark.render).light_entries.empty());
-  const FlatScene<float> lit = flatten_scene<float>(sky, sky.render);
+  EXPECT_TRUE(flatten_scene<float>(dark, with_light_sampling(dark.render, LightSampling::kNextEvent)).light_entries.empty());
+  const FlatScene<float> lit = flatten_scene<float>(sky, with_light_sampling(sky.render, LightSampling::kNextEvent));
   ASSERT_EQ(lit.light_entries.size(), 1u);
   EXPECT_EQ(lit.background_light, 0u);
   EXPECT_EQ(lit.light_entries[0].primitive, kNoLight);
   EXPECT_EQ(lit.light_entries[0].pmf, 1.0f);
+  EXPECT_EQ(lit.params.next_event, 1u);
+}
+
+// The default, auto, leaves a smooth sky to scattering (which samples it about as well as light sampling would,
+// with no shadow ray): with no other light the render is the one without light sampling, bit for bit.
+TEST(LightTable, AutoLeavesASmoothSkyToScattering) {
+  const SceneDescription sky = test::parse(R"({"render": {"width": 12, "height": 8, "samples_per_pixel": 4, "max_depth": 4},
+    "background": {"type": "sky", "horizon": [1, 1, 1], "zenith": [0.5, 0.7, 1]},
+    "camera": {"look_from": [0, 1, 6], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}},
+                {"type": "sphere", "center": [0, -101, 0], "radius": 100, "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}]})");
+  ASSERT_EQ(sky.render.light_sampling, LightSampling::kAuto);
+  const FlatScene<float> automatic = flatten_scene<float>(sky, sky.render);
+  EXPECT_LT(automatic.background_scattering_variance, 0.05);
+  EXPECT_TRUE(automatic.light_entries.empty());
+  EXPECT_EQ(automatic.params.next_event, 0u);
+  const RenderResult a = test::render(automatic, 2, Integrator::kMegakernel);
+  const RenderResult none = test::render(flatten_scene<float>(sky, with_light_sampling(sky.render, LightSampling::kNone)), 2, Integrator::kMegakernel);
+  EXPECT_EQ(a.image.rgb, none.image.rgb);
+  EXPECT_EQ(a.stats.rays, none.stats.rays);
+}
+
+// Where auto differs from both (a sky left to scattering and a small light sampled: tiny, meshes, the seed's
+// scene), its expected image is theirs.
+TEST(NextEventMatchesNaive, AutoBlockMeansAgreeWithinNoise) {
+  for (const std::string name : {"tiny", "meshes", "seed-default"}) {
+    const SceneDescription scene = load_case_scene(name);
+    const SceneCase& c = scene_case(name);
+    const u32 samples = c.nee_samples ? c.nee_samples : c.samples;
+    const FlatScene<float> automatic = flatten_scene<float>(scene, with_light_sampling(case_settings(scene, c, samples, 909), LightSampling::kAuto));
+    ASSERT_EQ(automatic.light_entries.size(), 1u) << name;  // the small light alone
+    EXPECT_EQ(automatic.background_light, kNoLight) << name;
+    const test::PixelStatistics a = statistics_on<float>("cpu", automatic);
+    const test::PixelStatistics b =
+        statistics_on<float>("cpu", flatten_scene<float>(scene, with_light_sampling(case_settings(scene, c, samples, 808), LightSampling::kNone)));
+    expect_blocks_agree(a, b, "auto", "naive", name);
+  }
+}
+
+// ---- Faint shadow rays traced by chance (the light threshold) ----
+
+// A threshold far above the default leaves most shadow rays out and weights the rest up: fewer rays, the same
+// expected image. A floor under a small rectangle (sampled by solid angle) and a small, far sphere (by its cone),
+// whose shadow rays could each add less than the threshold nearly everywhere.
+TEST(LightThreshold, LeavesTheExpectedImageAsItIs) {
+  const SceneDescription scene = test::parse(R"({
+    "render": {"width": 16, "height": 16, "samples_per_pixel": 1024, "max_depth": 3, "light_sampling": "nee"},
+    "camera": {"look_from": [0, 6, 0.01], "look_at": [0, 0, 0], "vertical_fov": 40},
+    "background": {"type": "constant", "color": [0, 0, 0]},
+    "objects": [
+      {"type": "quad", "corner": [-4, 0, -4], "u": [8, 0, 0], "v": [0, 0, 8], "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}},
+      {"type": "quad", "corner": [-0.5, 3, -0.5], "u": [1, 0, 0], "v": [0, 0, 1], "material": {"type": "diffuse_light", "emission": [3, 3, 3]}},
+      {"type": "sphere", "center": [3, 1, 3], "radius": 0.1, "material": {"type": "diffuse_light", "emission": [40, 30, 20]}}
+    ]})");
+  RenderSettings settings = scene.render;
+  settings.samples_per_pixel = 1024 / test::kSampleDivisor;
+  settings.light_threshold = 0;
+  const FlatScene<double> every = flatten_scene<double>(scene, settings);
+  settings.light_threshold = kMaxLightThreshold;
+  settings.seed = 2;
+  const FlatScene<double> some = flatten_scene<double>(scene, settings);
+  const test::PixelStatistics a = test::sample_statistics(every, settings.samples_per_pixel);
+  const test::PixelStatistics b = test::sample_statistics(some, settings.samples_per_pixel);
+  EXPECT_EQ(b.non_finite, 0u);
+  expect_blocks_agree(a, b, "every shadow ray", "faint ones by chance", "a floor under two small lights");
+  settings.samples_per_pixel = 16;
+  const u64 rays_some = test::render(flatten_scene<float>(scene, settings), 2, Integrator::kMegakernel).stats.rays;
+  settings.light_threshold = 0;
+  const u64 rays_every = test::render(flatten_scene<float>(scene, settings), 2, Integrator::kMegakernel).stats.rays;
+  EXPECT_LT(rays_some, rays_every * 8 / 10);
+}
+
+// Under the seed scene's small light, far from most of what the camera sees, most shadow rays could add little:
+// with the default threshold most of those towards it are left out.
+TEST(LightThreshold, LeavesFaintShadowRaysOut) {
+  const SceneDescription scene = load_case_scene("seed-default");
+  RenderSettings settings = with_light_sampling(scene.render, LightSampling::kAuto);
+  settings.width = 100;
+  settings.height = 60;
+  settings.samples_per_pixel = 8;
+  settings.light_threshold = 0;
+  const RenderResult every = test::render(flatten_scene<float>(scene, settings), 2, Integrator::kMegakernel);
+  settings.light_threshold = RenderSettings{}.light_threshold;
+  const RenderResult some = test::render(flatten_scene<float>(scene, settings), 2, Integrator::kMegakernel);
+  const double samples = static_cast<double>(every.stats.samples);
+  fmt::print("rays a sample: {:.3f} with every shadow ray, {:.3f} with faint ones by chance\n", every.stats.rays / samples, some.stats.rays / samples);
+  EXPECT_LT(static_cast<double>(some.stats.rays), 0.9 * static_cast<double>(every.stats.rays));
 }
 
 // ---- Rectangles sampled by solid angle ----

@@ -62,9 +62,10 @@ struct RenderOptions {
   int sycl_device = -1;      // SYCL device index; negative: the runtime's default choice
   std::string number_format = "float";
   std::string integrator = "auto";
-  std::optional<std::string> light_sampling;  // "nee" or "none"; the scene's (NEE by default) if omitted
+  std::optional<std::string> light_sampling;  // "auto", "nee" or "none"; the scene's (auto by default) if omitted
   std::optional<std::string> sampler;         // "sobol" or "independent"; the scene's (sobol by default) if omitted
   std::optional<double> noise_threshold;      // adaptive sampling; the scene's (off by default) if omitted
+  std::optional<double> light_threshold;      // shadow-ray roulette; the scene's (0.01 by default) if omitted
   bool quiet = false;
   bool verbose = false;            // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
@@ -111,8 +112,8 @@ void draw_progress(const Progress& p) {
 }
 
 RenderSettings effective_settings(const RenderOptions& options, const SceneDescription& scene) {
-  RenderOverrides overrides{options.width, options.height, options.spp, options.depth, options.seed, {}, {}, options.noise_threshold};
-  if (options.light_sampling) overrides.light_sampling = *options.light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+  RenderOverrides overrides{options.width, options.height, options.spp, options.depth, options.seed, {}, {}, options.noise_threshold, options.light_threshold};
+  if (options.light_sampling) overrides.light_sampling = parse_light_sampling(*options.light_sampling);
   if (options.sampler) overrides.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
   return apply_overrides(scene, overrides, kCommandLineSpelling);
 }
@@ -177,9 +178,9 @@ CheckpointKey render_key(const RenderOptions& options, const SceneDescription& s
   text << in.rdbuf();
   return checkpoint_key(
       text.str(),
-      fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {} noise threshold {}", settings.max_depth, settings.seed,
-                  settings.roulette_depth, options.number_format, settings.light_sampling == LightSampling::kNone ? "none" : "nee",
-                  sampler_name(settings.sampler), settings.noise_threshold),
+      fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {} noise threshold {} light threshold {}", settings.max_depth, settings.seed,
+                  settings.roulette_depth, options.number_format, light_sampling_name(settings.light_sampling),
+                  sampler_name(settings.sampler), settings.noise_threshold, settings.light_threshold),
       settings.width, settings.height);
 }
 
@@ -392,7 +393,13 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
                  options.checkpoint.empty() || checkpoint_failure ? "" : fmt::format("; film saved to {}", options.checkpoint));
     if constexpr (is_fixed_v<T>) fmt::print(stderr, "{} fixed-point saturation events\n", s.saturations);
   }
-  if (options.verbose) phases.print(seconds_since(program_start));
+  if (options.verbose) {
+    phases.print(seconds_since(program_start));
+    const std::size_t sampled = flat.params.next_event ? flat.light_entries.size() : 0;
+    fmt::print(stderr, "  light sampling {}: {} light{} by next-event estimation, the background {} (its relative variance under scattering {:.3g})\n",
+               light_sampling_name(settings.light_sampling), sampled, sampled == 1 ? "" : "s",
+               sampled > 0 && flat.background_light != kNoLight ? "among them" : "found by scattering", flat.background_scattering_variance);
+  }
   if (checkpoint_failure) {
     fmt::print(stderr, "pathtracer: error: {} (the image was written to {})\n", *checkpoint_failure, options.output);
     return kErrorExitCode;
@@ -615,9 +622,10 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     command
         ->add_option("--light-sampling", options.light_sampling,
-                     "nee (next-event estimation: a shadow ray to a light at every diffuse bounce, with multiple importance sampling) "
-                     "or none (lights found only by scattering); the scene's, else nee, if omitted")
-        ->check(CLI::IsMember({"nee", "none"}));
+                     "auto (next-event estimation of every emitting shape, and of the background only where it varies enough to "
+                     "pay), nee (a shadow ray to a light, the background included, at every diffuse bounce, with multiple importance "
+                     "sampling) or none (lights found only by scattering); the scene's, else auto, if omitted")
+        ->check(CLI::IsMember({"auto", "nee", "none"}));
     command
         ->add_option("--sampler", options.sampler,
                      "sobol (each pixel's samples stratified in every dimension: Owen-scrambled Sobol points) or independent "
@@ -626,6 +634,10 @@ int main(int argc, char** argv) {
     command->add_option("--noise-threshold", options.noise_threshold,
                         "Adaptive sampling: a pixel stops taking samples once its estimated error as displayed (0..1) is below this (e.g. 0.01; "
                         "0: off; docs/adaptive-sampling.md); the scene's, else 0, if omitted");
+    command->add_option("--light-threshold", options.light_threshold,
+                        "Shadow rays whose light could add less than this radiance to a sample are traced by chance and weighted by its "
+                        "inverse (the same expected image, fewer rays towards faint or far lights; 0: every one is traced); the scene's, "
+                        "else 0.01, if omitted");
     command->add_flag("--trust-model-paths", options.trust_model_paths,
                       "Let model files (OBJ, MTL, glTF) name files outside their own folder: absolute paths, '..', links that lead out");
     command->add_option("--number-format", options.number_format, "Scalar type of the kernels (qI.F: fixed point, docs/numerics.md)")

@@ -28,7 +28,11 @@ RenderSettings apply_overrides(const SceneDescription& scene, const RenderOverri
   if (overrides.noise_threshold && !(*overrides.noise_threshold >= 0 && *overrides.noise_threshold <= kMaxNoiseThreshold))
     throw InputError(fmt::format("{}{}{}: not an error in 0..{} (0: every pixel takes all its samples)", spelling.noise_threshold,
                                  spelling.before_value, *overrides.noise_threshold, kMaxNoiseThreshold));
+  if (overrides.light_threshold && !(*overrides.light_threshold >= 0 && *overrides.light_threshold <= kMaxLightThreshold))
+    throw InputError(fmt::format("{}{}{}: not a radiance in 0..{} (0: every shadow ray is traced)", spelling.light_threshold, spelling.before_value,
+                                 *overrides.light_threshold, kMaxLightThreshold));
   RenderSettings settings = scene.render;
+  if (overrides.light_threshold) settings.light_threshold = *overrides.light_threshold;
   if (overrides.noise_threshold) settings.noise_threshold = *overrides.noise_threshold;
   if (overrides.width) settings.width = *overrides.width;
   if (overrides.height) settings.height = *overrides.height;

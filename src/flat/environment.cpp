@@ -1,6 +1,8 @@
-// The environment image's sampling distribution, and the background's mean radiance for light selection.
+// The environment image's sampling distribution, the background's mean radiance for light selection, and how noisily
+// scattering alone finds it (whether sampling it as a light pays).
 #include "flat/environment.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "base/scalar_types.hpp"
@@ -94,7 +96,90 @@ Color<double> background_mean_radiance(const FlatScene<T>& scene) {
   return sum / (4 * kPi);
 }
 
+namespace {
+
+// One patch of the sphere of directions: its centre, its solid angle, and the mean luminance and mean squared
+// luminance the background shows over it.
+struct BackgroundPatch {
+  double x, y, z;
+  double solid_angle;
+  double mean, mean_square;
+};
+
+// The background as at most kPatchRows x 2 kPatchRows patches of latitude and longitude: the gradient sampled at their
+// centres, an environment image's texels gathered into blocks (their squares summed, so a sun smaller than a block
+// keeps its second moment).
+constexpr u32 kPatchRows = 64;
+
+template <class T>
+std::vector<BackgroundPatch> background_patches(const FlatScene<T>& scene) {
+  const EnvironmentMap<T>& map = scene.background.environment;
+  const u32 width = map.width != 0 ? map.width : 2 * kPatchRows, height = map.width != 0 ? map.height : kPatchRows;
+  const u32 block_x = (width + 2 * kPatchRows - 1) / (2 * kPatchRows), block_y = (height + kPatchRows - 1) / kPatchRows;
+  std::vector<BackgroundPatch> patches;
+  for (u32 row0 = 0; row0 < height; row0 += block_y) {
+    const u32 row1 = std::min(height, row0 + block_y);
+    for (u32 column0 = 0; column0 < width; column0 += block_x) {
+      const u32 column1 = std::min(width, column0 + block_x);
+      double weight = 0, sum = 0, sum_square = 0;
+      for (u32 row = row0; row < row1; ++row) {
+        const double texel_angle = 2 * kPi / width * (std::cos(kPi * row / height) - std::cos(kPi * (row + 1) / height));
+        for (u32 column = column0; column < column1; ++column) {
+          double l;
+          if (map.width != 0) {
+            const float* t = scene.environment_rgb.data() + 3 * (static_cast<std::size_t>(row) * width + column);
+            l = luminance(t[0], t[1], t[2]);
+          } else {
+            const double a = 0.5 * (std::cos(kPi * (row + 0.5) / height) + 1);  // kernel/background.hpp's blend
+            const Color<T>& h = scene.background.horizon;
+            const Color<T>& z = scene.background.zenith;
+            l = luminance((1 - a) * static_cast<double>(h.x) + a * static_cast<double>(z.x), (1 - a) * static_cast<double>(h.y) + a * static_cast<double>(z.y),
+                          (1 - a) * static_cast<double>(h.z) + a * static_cast<double>(z.z));
+          }
+          weight += texel_angle;
+          sum += l * texel_angle;
+          sum_square += l * l * texel_angle;
+        }
+      }
+      if (!(weight > 0)) continue;
+      const double theta = kPi * 0.5 * (row0 + row1) / height, phi = 2 * kPi * 0.5 * (column0 + column1) / width;
+      patches.push_back({std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi), weight, sum / weight, sum_square / weight});
+    }
+  }
+  return patches;
+}
+
+}  // namespace
+
+template <class T>
+double background_scattering_variance(const FlatScene<T>& scene) {
+  const std::vector<BackgroundPatch> patches = background_patches(scene);
+  // Normals spread evenly over the sphere (a Fibonacci lattice).
+  constexpr int kNormals = 64;
+  const double golden_turn = kPi * (3 - std::sqrt(5.0));
+  double total = 0;
+  int counted = 0;
+  for (int i = 0; i < kNormals; ++i) {
+    const double ny = 1 - (2 * i + 1.0) / kNormals, r = std::sqrt(1 - ny * ny);
+    const double nx = r * std::cos(golden_turn * i), nz = r * std::sin(golden_turn * i);
+    // Irradiance E = integral of L cos, and the cosine-sampled estimate pi L's second moment, pi integral of L^2 cos.
+    double irradiance = 0, second_moment = 0;
+    for (const BackgroundPatch& p : patches) {
+      const double cosine = p.x * nx + p.y * ny + p.z * nz;
+      if (cosine <= 0) continue;
+      irradiance += p.mean * cosine * p.solid_angle;
+      second_moment += p.mean_square * cosine * p.solid_angle;
+    }
+    if (!(irradiance > 0)) continue;  // a black hemisphere: scattering finds nothing there, nor would light sampling
+    total += std::max(0.0, kPi * second_moment / (irradiance * irradiance) - 1);
+    ++counted;
+  }
+  return counted > 0 ? total / counted : 0;
+}
+
 #define PT_INSTANTIATE_BACKGROUND_MEAN(...) template Color<double> background_mean_radiance<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKGROUND_MEAN)
+#define PT_INSTANTIATE_BACKGROUND_VARIANCE(...) template double background_scattering_variance<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&);
+PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_BACKGROUND_VARIANCE)
 
 }  // namespace pt

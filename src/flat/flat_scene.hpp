@@ -39,6 +39,7 @@ struct FlatScene {
   std::vector<u32> primitive_light;
   std::vector<T> light_triangle_cdf;
   u32 background_light = kNoLight;
+  double background_scattering_variance = 0;  // what decided whether the background is a light under auto
   // The environment image, when the background is one (kernel/background.hpp, EnvironmentArrays; empty otherwise):
   // its texels times the strength, and the distribution importance sampling draws directions from.
   std::vector<float> environment_rgb, environment_density, environment_row_cdf, environment_column_cdfs;
@@ -115,10 +116,23 @@ template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale = 0);
 
 // The lights of a flat scene whose primitives, materials, meshes and background are in place: every primitive that
-// emits (an emitting material with some power), and the background where it is not black, in an alias table that
-// picks each by its share of the emitted power (flat/light_table.cpp).
+// emits (an emitting material with some power), and the background where it is not black and `with_background`, in an
+// alias table that picks each by its share of the emitted power (flat/light_table.cpp).
 template <class T>
-void build_light_table(FlatScene<T>& scene);
+void build_light_table(FlatScene<T>& scene, bool with_background = true);
+
+// How noisily scattering alone finds the background: the relative variance (variance over squared mean) of a diffuse
+// surface's irradiance from the background when its directions are drawn by the cosine (as a diffuse material
+// scatters), averaged over normals spread evenly over the sphere. 0 for a constant background; about 0.05 for the
+// shipped skies' gradients; for a sun of solid angle S it approaches pi / S (thousands). flat/environment.cpp.
+template <class T>
+double background_scattering_variance(const FlatScene<T>& scene);
+
+// Above this relative variance, light sampling of the background pays for its shadow rays under --light-sampling
+// auto: there the cosine's estimate of the background's light is noisier than its own mean, so a second ray that
+// draws directions by the background's brightness removes more variance than its cost; below it scattering finds the
+// light nearly as well alone (docs/light-transport.md, "Which lights are sampled").
+inline constexpr double kBackgroundSamplingVariance = 1.0;
 // The background's mean radiance over all directions (the gradient's, or the environment image's as kernels see
 // it, strength included), for choosing among lights by power: the power a background sends into a sphere of radius
 // r around the scene is pi r^2 times 4 pi times this mean.

@@ -703,13 +703,19 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   std::vector<Primitive<T>>().swap(converted);
   flat.texels = scene.texels;
   flat.srgb_decode = srgb_decode_table();
-  flat.params = RenderParams<T>{settings.width,  settings.height,         settings.max_depth,
-                                settings.seed,   settings.roulette_depth, settings.light_sampling == LightSampling::kNextEvent ? 1u : 0u,
-                                settings.sampler};
   flat.samples_per_pixel = settings.samples_per_pixel;
   flat.noise_threshold = settings.noise_threshold;
   check_pixel_resolution(fit, camera, settings.width, settings.height);
-  build_light_table(flat);
+  // auto: the background joins the lights only where scattering alone would find it noisily; with no light left,
+  // paths run exactly as without light sampling.
+  flat.background_scattering_variance = background_scattering_variance(flat);
+  const bool sample_background =
+      settings.light_sampling == LightSampling::kNextEvent || flat.background_scattering_variance > kBackgroundSamplingVariance;
+  build_light_table(flat, sample_background);
+  const bool next_event = settings.light_sampling != LightSampling::kNone && !flat.light_entries.empty();
+  flat.params = RenderParams<T>{settings.width,    settings.height,    settings.max_depth,
+                                settings.seed,     settings.roulette_depth, next_event ? 1u : 0u,
+                                settings.sampler,  T(settings.light_threshold)};
   return flat;
 }
 

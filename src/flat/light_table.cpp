@@ -48,6 +48,25 @@ double mean_luminance(const FlatScene<T>& scene, const Texture<T>& texture) {
   return 1;
 }
 
+// The largest channel a texture shows anywhere, for the roulette of faint shadow rays; 0 (not known) for noise.
+template <class T>
+double brightest_channel(const FlatScene<T>& scene, const Texture<T>& texture) {
+  auto largest_of = [](const Color<T>& c) { return std::max({static_cast<double>(c.x), static_cast<double>(c.y), static_cast<double>(c.z)}); };
+  if (const auto* solid = std::get_if<SolidTexture<T>>(&texture)) return largest_of(solid->color);
+  if (const auto* checker = std::get_if<CheckerTexture<T>>(&texture)) return std::max(largest_of(checker->odd), largest_of(checker->even));
+  if (const auto* checker = std::get_if<UvCheckerTexture<T>>(&texture)) return std::max(largest_of(checker->odd), largest_of(checker->even));
+  if (const auto* image = std::get_if<ImageTexture<T>>(&texture)) {
+    const std::size_t texels = static_cast<std::size_t>(image->width) * image->height;
+    double most = 0;
+    for (std::size_t i = 0; i < 3 * texels; ++i) {
+      const u8 byte = scene.texels[3 * static_cast<std::size_t>(image->offset) + i];
+      most = std::max<double>(most, image->linear ? byte / 255.0 : scene.srgb_decode[byte]);
+    }
+    return most * largest_of(image->factor);
+  }
+  return 0;
+}
+
 // The luminance a material emits (0 for materials that do not).
 template <class T>
 double emitted_luminance(const FlatScene<T>& scene, u32 material) {
@@ -91,7 +110,7 @@ void fill_alias_table(std::vector<LightEntry<T>>& entries, const std::vector<dou
 }  // namespace
 
 template <class T>
-void build_light_table(FlatScene<T>& scene) {
+void build_light_table(FlatScene<T>& scene, bool with_background) {
   scene.light_entries.clear();
   scene.light_triangle_cdf.clear();
   scene.primitive_light.assign(scene.primitives.size(), kNoLight);
@@ -165,20 +184,24 @@ void build_light_table(FlatScene<T>& scene) {
       power = emitted * area;
     }
     if (!(power > 0) || !std::isfinite(power)) continue;
+    // A mesh's triangles may each have their own material: no one brightness.
+    const auto* light = first_cdf == kNoLight ? std::get_if<DiffuseLight<T>>(&scene.materials[primitive.material]) : nullptr;
+    const double brightest = light ? brightest_channel(scene, scene.textures[light->texture]) : 0;
     scene.primitive_light[p] = static_cast<u32>(scene.light_entries.size());
-    scene.light_entries.push_back(LightEntry<T>{p, 0, T(1), T(0), first_cdf});
+    scene.light_entries.push_back(
+        LightEntry<T>{p, 0, T(1), T(0), first_cdf, brightest < static_cast<double>(largest<T>()) ? T(brightest) : T(0)});
     powers.push_back(2 * kPi * power);  // both sides emit: pi A L each
   }
 
   // The background, where it shines, as a light around a sphere that holds the scene (pbrt's measure of a distant
   // light's power: pi R^2 times its mean radiance over the sphere of directions, 4 pi).
   const double background = luminance(background_mean_radiance(scene));
-  if (background > 0 && !scene.nodes.empty()) {
+  if (with_background && background > 0 && !scene.nodes.empty()) {
     const Vec3d lo = to_double(scene.nodes[0].lo), hi = to_double(scene.nodes[0].hi);
     const double radius = 0.5 * length(hi - lo);
     const double power = std::isfinite(radius) && radius > 0 ? 4 * kPi * kPi * radius * radius * background : background;
     scene.background_light = static_cast<u32>(scene.light_entries.size());
-    scene.light_entries.push_back(LightEntry<T>{kNoLight, 0, T(1), T(0), kNoLight});
+    scene.light_entries.push_back(LightEntry<T>{kNoLight, 0, T(1), T(0), kNoLight, T(0)});  // its own per sample
     powers.push_back(power);
   }
   if (!scene.light_entries.empty()) fill_alias_table(scene.light_entries, powers);
@@ -191,7 +214,7 @@ void build_light_table(FlatScene<T>& scene) {
   }
 }
 
-#define PT_INSTANTIATE_LIGHT_TABLE(...) template void build_light_table<__VA_ARGS__>(FlatScene<__VA_ARGS__>&);
+#define PT_INSTANTIATE_LIGHT_TABLE(...) template void build_light_table<__VA_ARGS__>(FlatScene<__VA_ARGS__>&, bool);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_LIGHT_TABLE)
 
 }  // namespace pt

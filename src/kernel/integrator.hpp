@@ -85,7 +85,21 @@ PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathSta
   if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
   const ScatterValue<T> value = material_evaluate(material, at, -path.ray.direction, light.direction, scene.textures, scene.texture_data);
   if (!(value.pdf > T(0))) return;
-  shadow = shadow_ray_to(light, spawn_ray(at, light.direction, path.ray.time), path.throughput * value.value, value.pdf);
+  Color<T> weight = path.throughput * value.value;
+  // Shadow-ray roulette (Cycles' light threshold): a shadow ray whose light, unblocked, could add less than the
+  // threshold to the sample is traced with probability (that most) / threshold, at least 1/32, and counts 1 / that
+  // probability when it is. The expected value is the same; rays towards lights too faint or too far away to matter
+  // at this point are mostly saved. Only where sampling knows the light's density and brightness beforehand.
+  const T threshold = scene.params.light_threshold;
+  if (threshold > T(0) && light.pdf > T(0) && light.brightest > T(0)) {
+    const T most = max_component(weight) * light.brightest * mis_weight_over_pdf(light.pdf, value.pdf);
+    if (most < threshold) {
+      const T keep = max(most / threshold, constant<T>(1.0 / 32));
+      if (!(random.template uniform<T>(kDimShadowRoulette) < keep)) return;
+      weight = weight / keep;
+    }
+  }
+  shadow = shadow_ray_to(light, spawn_ray(at, light.direction, path.ray.time), weight, value.pdf);
   ++path.shadow_rays;
 }
 

@@ -13,7 +13,10 @@ template <class T>
 struct LightSample {
   Vec3<T> direction;
   T distance;  // to the point on the light (largest<T>() for the background)
-  T pdf;       // the density per unit solid angle where sampling knows it (a rectangle by solid angle), else 0
+  T pdf;       // the density per unit solid angle where sampling knows it (by solid angle: a cone, a rectangle, the
+               // background), else 0
+  T brightest; // the largest channel of the radiance it can bring (the background's own, a shape's brightest), 0
+               // where not known
   u32 entry;
   u32 triangle;
 };
@@ -45,9 +48,11 @@ PT_HD inline T mis_weight_over_pdf(T pdf, T other) {
   }
 }
 
-// Picks an entry of the alias table: a uniform index, then the entry or its alias.
+// Picks an entry of the alias table: a uniform index, then the entry or its alias. A lone light needs no draw (both
+// would give entry 0), which saves two of the few random numbers a light sample costs.
 template <class T>
 PT_HD inline u32 choose_light(const LightData<T>& lights, const BounceRandom& random) {
+  if (lights.count == 1) return 0;
   const u32 index = static_cast<u32>((static_cast<u64>(random.stream->bits(random.bounce, kDimLightChoice)) * lights.count) >> 32);
   const LightEntry<T>& entry = lights.entries[index];
   return random.template uniform<T>(kDimLightAlias) < entry.threshold ? index : entry.alias;
@@ -286,11 +291,15 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
   out.entry = entry;
   out.triangle = 0;
   out.pdf = T(0);
+  out.brightest = light.brightest;
   T u1, u2;
   random.uniform_pair(kDimLightPoint, u1, u2);
   if (light.primitive == kNoLight) {
-    out.direction = background_sample(scene.background, u1, u2).direction;
+    const BackgroundSample<T> sample = background_sample(scene.background, u1, u2);
+    out.direction = sample.direction;
     out.distance = largest<T>();
+    out.pdf = light.pmf * sample.pdf;
+    out.brightest = max_component(sample.radiance);
     return true;
   }
   const Primitive<T>& primitive = scene.primitives[light.primitive];
@@ -304,7 +313,9 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
       const T d = length(to_center);
       if (d > radius) {
         const T sine = radius / d;
-        out.direction = direction_about(to_center / d, T(1) - u1 * sphere_cone_width(sine * sine, T(1)), u2);
+        const T width = sphere_cone_width(sine * sine, T(1));
+        out.direction = direction_about(to_center / d, T(1) - u1 * width, u2);
+        out.pdf = light.pmf / (constant<T>(2) * pi<T>() * width);
         T near, far;
         out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0)
                            ? near
@@ -317,6 +328,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
       if (d2 > r2) {
         const T width = sphere_cone_width(r2, d2);
         out.direction = direction_about(to_center / sqrt(d2), T(1) - u1 * width, u2);
+        out.pdf = light.pmf / (constant<T>(2) * pi<T>() * width);
         // Where the direction enters the sphere; the tangent's length bounds it where rounding misses the sphere.
         T near, far;
         out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0) ? near : sqrt(d2 - r2);

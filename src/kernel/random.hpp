@@ -31,6 +31,7 @@ enum RandomDimension : u32 {
   kDimLightAlias = 21,     // ... the alias table's choice between the entry and its alias
   kDimLightPoint = 22,     // pair: the point on the light (or the direction towards it)
   kDimLightTriangle = 24,  // the triangle of an emitting mesh
+  kDimShadowRoulette = 25, // whether a faint shadow ray is traced (kernel/integrator.hpp, sample_next_event)
   // A medium draws its free-flight distance from dimension kDimMediumBase + its primitive index, so the draw
   // does not depend on the order in which the acceleration structure visits primitives.
   kDimMediumBase = 64,

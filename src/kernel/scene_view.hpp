@@ -16,6 +16,7 @@ struct RenderParams {
   u32 roulette_depth;   // 0: no Russian roulette
   u32 next_event;       // 1: next-event estimation with multiple importance sampling (kernel/lights.hpp); 0: none
   SamplerKind sampler;  // how each pixel's samples are placed (kernel/random.hpp)
+  T light_threshold;    // shadow rays that could add less are traced by chance (kernel/integrator.hpp); 0: all
 };
 
 // ---- Lights, for next-event estimation ----
@@ -31,6 +32,7 @@ struct LightEntry {
   T threshold;
   T pmf;
   u32 first_cdf;  // kNoLight but for mesh instances
+  T brightest;    // the largest channel of radiance the light emits anywhere; largest<T>() where not known
 };
 
 // A rectangular light's frame, the same from wherever the light is seen, so made once (build_light_table) rather

@@ -261,7 +261,7 @@ class SceneReader {
   }
 
   void read_render(const Node& n) {
-    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "light_sampling", "sampler", "noise_threshold", "t_min"});
+    n.allow_keys({"width", "height", "samples_per_pixel", "max_depth", "seed", "russian_roulette_depth", "light_sampling", "light_threshold", "sampler", "noise_threshold", "t_min"});
     RenderSettings& r = scene_.render;
     if (n.has("width")) r.width = n.child("width").integer(1, kMaxImageSide);
     if (n.has("height")) r.height = n.child("height").integer(1, kMaxImageSide);
@@ -271,11 +271,13 @@ class SceneReader {
     if (n.has("seed")) r.seed = n.child("seed").integer(0, 0xffffffffu);
     if (n.has("russian_roulette_depth")) r.roulette_depth = n.child("russian_roulette_depth").integer(0, kMaxDepth);
     if (n.has("noise_threshold")) r.noise_threshold = n.child("noise_threshold").number_in(0, kMaxNoiseThreshold);
+    if (n.has("light_threshold")) r.light_threshold = n.child("light_threshold").number_in(0, kMaxLightThreshold);
     if (n.has("light_sampling")) {
       const Node choice = n.child("light_sampling");
       const std::string value = choice.string();
-      if (value != "nee" && value != "none") choice.fail(fmt::format("'{}' is not a light sampling: nee or none", clip(value)));
-      r.light_sampling = value == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+      const std::optional<LightSampling> sampling = parse_light_sampling(value);
+      if (!sampling) choice.fail(fmt::format("'{}' is not a light sampling: auto, nee or none", clip(value)));
+      r.light_sampling = *sampling;
     }
     if (n.has("sampler")) {
       const Node choice = n.child("sampler");

@@ -43,9 +43,7 @@ struct PyScene {
   std::shared_ptr<const SceneDescription> scene;
 };
 
-const OverrideSpelling kPythonSpelling{"width=", "height=", "spp=", "depth=", "noise_threshold=", ""};
-
-const char* light_sampling_name(LightSampling sampling) { return sampling == LightSampling::kNone ? "none" : "nee"; }
+const OverrideSpelling kPythonSpelling{"width=", "height=", "spp=", "depth=", "noise_threshold=", "light_threshold=", ""};
 
 py::dict settings_dict(const RenderSettings& settings) {
   py::dict d;
@@ -57,6 +55,7 @@ py::dict settings_dict(const RenderSettings& settings) {
   d["light_sampling"] = light_sampling_name(settings.light_sampling);
   d["sampler"] = sampler_name(settings.sampler);
   d["noise_threshold"] = settings.noise_threshold;
+  d["light_threshold"] = settings.light_threshold;
   return d;
 }
 
@@ -276,13 +275,13 @@ PYBIND11_MODULE(pathtracer, m) {
          std::optional<u32> seed, std::optional<std::string> light_sampling, std::optional<std::string> sampler, const std::string& backend,
          const std::string& device, unsigned threads, const std::string& integrator, const std::string& number_format, std::optional<int> sycl_device,
          std::optional<double> time_limit, const py::object& progress, const py::object& layers, bool trust_model_paths,
-         std::optional<double> noise_threshold) {
+         std::optional<double> noise_threshold, std::optional<double> light_threshold) {
         RenderArguments arguments;
-        arguments.overrides = {width, height, spp, depth, seed, {}, {}, noise_threshold};
+        arguments.overrides = {width, height, spp, depth, seed, {}, {}, noise_threshold, light_threshold};
         if (light_sampling) {
-          if (*light_sampling != "nee" && *light_sampling != "none")
-            throw InputError(fmt::format("light_sampling='{}': not one of nee, none", *light_sampling));
-          arguments.overrides.light_sampling = *light_sampling == "none" ? LightSampling::kNone : LightSampling::kNextEvent;
+          arguments.overrides.light_sampling = parse_light_sampling(*light_sampling);
+          if (!arguments.overrides.light_sampling)
+            throw InputError(fmt::format("light_sampling='{}': not one of auto, nee, none", *light_sampling));
         }
         if (sampler) {
           if (*sampler != "sobol" && *sampler != "independent")
@@ -313,11 +312,13 @@ PYBIND11_MODULE(pathtracer, m) {
       py::arg("backend") = "cpu", py::arg("device") = "0", py::arg("threads") = 0u, py::arg("integrator") = "auto",
       py::arg("number_format") = "float", py::arg("sycl_device") = py::none(), py::arg("time_limit") = py::none(), py::arg("progress") = py::none(),
       py::arg("layers") = py::none(), py::arg("trust_model_paths") = false, py::arg("noise_threshold") = py::none(),
+      py::arg("light_threshold") = py::none(),
       "Renders a scene (a path, a dict or a Scene) with the scene's settings and the ones given, as `pathtracer render` does.\n"
       "progress(report) is called after every pass with a dict (samples_done, samples_total, elapsed_seconds,\n"
       "samples_per_second); returning False stops the render, which returns the image of the samples done.\n"
       "An exception in it, or Ctrl-C, stops the render and is raised. layers: 'albedo,normal', a list of names, or 'all'.\n"
       "noise_threshold: adaptive sampling, pixels stop once their estimated error as displayed (0..1) is below it.\n"
+      "light_sampling: auto, nee or none; light_threshold: shadow rays that could add less are traced by chance (0: all).\n"
       "Returns a Render.");
 
   m.def("write_image", &write_array, py::arg("path"), py::arg("image"),

@@ -68,6 +68,14 @@ def test_every_setting_reaches_the_render(tmp_path):
     for name, value in [("depth", 2), ("seed", 8), ("light_sampling", "nee"), ("sampler", "sobol"), ("number_format", "float")]:
         changed = pathtracer.render(scene, **{**args, name: value})
         assert not np.array_equal(changed.image, render.image), name
+    # The light threshold, where there are shadow rays to leave out.
+    lit = {**args, "light_sampling": "auto"}
+    faint = pathtracer.render(scene, **lit, light_threshold=0.5)
+    assert not np.array_equal(faint.image, pathtracer.render(scene, **lit).image)
+    assert np.array_equal(faint.image, program_render(tmp_path, scene, "--width", "32", "--height", "20", "--spp", "3", "--depth", "4", "--seed",
+                                                      "7", "--light-sampling", "auto", "--light-threshold", "0.5", "--sampler",
+                                                      "independent", "--integrator", "wavefront", "--number-format", "double", "--threads",
+                                                      "1"))
 
 
 def test_threads_and_integrators_give_one_image():
@@ -100,7 +108,8 @@ def test_a_dict_renders_as_its_file_does(monkeypatch):
 def test_scene_settings_and_overrides():
     scene = pathtracer.Scene(SCENES / "seed-default.json")
     settings = scene.settings
-    assert set(settings) == {"width", "height", "spp", "depth", "seed", "light_sampling", "sampler", "noise_threshold"}
+    assert set(settings) == {"width", "height", "spp", "depth", "seed", "light_sampling", "light_threshold", "sampler", "noise_threshold"}
+    assert settings["light_sampling"] == "auto" and settings["light_threshold"] == 0.01
     render = pathtracer.render(scene, width=16, spp=1)
     assert render.image.shape == (settings["height"], 16, 3)
     assert scene.source.endswith("seed-default.json")
@@ -135,6 +144,7 @@ def test_errors_carry_the_programs_message(tmp_path):
     with pytest.raises(pathtracer.Error, match="^width=9000 height=9000: 9000x9000 pixels is too large"):
         pathtracer.render(SCENES / "tiny.json", width=9000, height=9000)
     for bad in [dict(backend="vulkan"), dict(integrator="fast"), dict(number_format="half"), dict(light_sampling="all"), dict(sampler="grid"),
+                dict(light_threshold=-0.5), dict(light_threshold=float("nan")),
                 dict(time_limit=float("nan")), dict(device="7"), dict(sycl_device=0)]:
         with pytest.raises(pathtracer.Error):
             pathtracer.render(SCENES / "tiny.json", **SMALL, **bad)

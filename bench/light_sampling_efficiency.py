@@ -1,0 +1,87 @@
+#!/usr/bin/env python3
+"""Time to equal error of the light-sampling choices (auto, nee, none) on scenes, side by side in one run.
+
+Each choice renders each scene with two seeds; for unbiased estimators the mean squared difference of the two images
+is twice the variance of one, so the variance needs no reference image. The time is the median of `bench` (the
+render alone, device events on a GPU), the choices timed in turns over several rounds. Where auto's image equals
+another choice's bit for bit, the table says so: their ratio is 1 but for the timing's noise. Efficiency is 1 / (variance x time); the table gives each choice's efficiency
+over the better of nee and none, the figure the default must keep near 1 (at least 0.95).
+
+  bench/light_sampling_efficiency.py PATHTRACER [--scenes a.json,b.json] [--size 400x240] [--spp 64] [--runs 3] [--rounds 3]
+                                     [--choices auto,nee,none] [-- extra options for render and bench, e.g. --backend cuda]
+"""
+import argparse
+import filecmp
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+from compare_pfm import read_pfm  # noqa: E402  (the one PFM reader of the tools)
+
+SHIPPED = ["seed-default", "book1-final", "book2-final", "cornell-box", "cornell-smoke", "environment", "meshes", "normal-maps", "tiny"]
+
+
+def run(command):
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed ({result.returncode}):\n{result.stderr}")
+    return result.stdout + result.stderr
+
+
+def variance(path_a, path_b):
+    """The per-value variance of one image, from two independent renders."""
+    width, height, a = read_pfm(path_a)
+    _, _, b = read_pfm(path_b)
+    return sum((x - y) ** 2 for x, y in zip(a, b)) / (2 * len(a))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("pathtracer")
+    parser.add_argument("--scenes", default=",".join(f"scenes/{s}.json" for s in SHIPPED))
+    parser.add_argument("--size", default="400x240")
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--runs", type=int, default=3, help="bench's runs, of which it gives the median")
+    parser.add_argument("--rounds", type=int, default=3, help="turns of timing every choice; the median of the rounds is kept")
+    parser.add_argument("--choices", default="auto,nee,none")
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1:] if "--" in argv else []
+    args = parser.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
+    width, height = args.size.split("x")
+    common = ["--width", width, "--height", height, "--spp", str(args.spp)] + extra
+    choices = args.choices.split(",")
+    print(f"| scene | {' | '.join(f'{c}: time, variance' for c in choices)} | {' | '.join(f'{c} / best of nee, none' for c in choices)} |")
+    print(f"| --- | {' | '.join('---' for _ in choices)} | {' | '.join('---' for _ in choices)} |")
+    with tempfile.TemporaryDirectory() as folder:
+        for scene in args.scenes.split(","):
+            images, variances = {}, {}
+            for choice in choices:
+                pair = []
+                for seed in (11, 12):
+                    image = os.path.join(folder, f"{choice}-{seed}.pfm")
+                    run([args.pathtracer, "render", scene, "--seed", str(seed), "--light-sampling", choice, "-q", "-o", image] + common)
+                    pair.append(image)
+                images[choice] = pair[0]
+                variances[choice] = variance(*pair)
+            # The choices timed in turns, so that a machine's changing load falls on all of them alike.
+            times = {choice: [] for choice in choices}
+            for _ in range(args.rounds):
+                for choice in choices:
+                    text = run([args.pathtracer, "bench", scene, "--seed", "11", "--light-sampling", choice, "--runs", str(args.runs)] + common)
+                    times[choice].append(float(re.search(r"median of \d+: ([0-9.]+) s", text).group(1)))
+            efficiency, cells = {}, []
+            for choice in choices:
+                seconds, v = statistics.median(times[choice]), variances[choice]
+                efficiency[choice] = 1 / (v * seconds) if v > 0 else float("inf")
+                same = [other for other in choices if other != choice and filecmp.cmp(images[choice], images[other], shallow=False)]
+                cells.append(f"{seconds:.4f} s, {v:.3g}" + (f" (= {', '.join(same)})" if same and choice == "auto" else ""))
+            best = max(efficiency.get(c, 0) for c in ("nee", "none"))
+            ratios = [f"{efficiency[c] / best:.2f}" if best > 0 else "-" for c in choices]
+            print(f"| {os.path.basename(scene)} | {' | '.join(cells)} | {' | '.join(ratios)} |", flush=True)
+
+if __name__ == "__main__":
+    main()
