@@ -107,10 +107,11 @@ void expect_wavefront_matches_megakernel(const std::string& backend, const std::
   EXPECT_NEAR(static_cast<double>(wave.stats.rays), static_cast<double>(mega.stats.rays), 0.005 * mega.stats.rays);
 }
 
-// Built with -DPT_CUDA_FMAD=OFF (nvcc told never to contract a*b+c into a fused multiply-add on its own), the GPU's
-// integrators are held to what the CPU's meet, the same image bit for bit: contracted where nvcc likes, the same code
-// in the megakernel's shape and in the wavefront's stages rounds differently (771 of 172,800 values of meshes.json
-// differed on an H200). Built to contract (the default), they are held to the statistical bound above.
+// Built as by default (-DPT_CUDA_FMAD=OFF: nvcc told never to contract a*b+c into a fused multiply-add on its own),
+// the GPU's integrators are held to what the CPU's meet, the same image bit for bit: contracted where nvcc likes, the
+// same code in the megakernel's shape and in the wavefront's stages rounds differently (771 of 172,800 values of
+// meshes.json differed on an H200). Built to contract (-DPT_CUDA_FMAD=ON), they are held to the statistical bound
+// above.
 TEST_P(IntegratorEquivalence, WavefrontMatchesMegakernelOnGpu) {
 #if !PT_HAVE_CUDA
   GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
