@@ -278,8 +278,9 @@ TEST(NextEventMatchesNaive, AutoBlockMeansAgreeWithinNoise) {
 // ---- Faint shadow rays traced by chance (the light threshold) ----
 
 // A threshold far above the default leaves most shadow rays out and weights the rest up: fewer rays, the same
-// expected image. A floor under a small rectangle (sampled by solid angle) and a small, far sphere (by its cone),
-// whose shadow rays could each add less than the threshold nearly everywhere.
+// expected image. A floor under a small rectangle (sampled by solid angle) and a small, far, bright sphere (by its
+// cone; half the floor's light), whose samples could each add less than the threshold nearly everywhere: both stages
+// of the roulette, before the sample is drawn and before its shadow ray is traced, take part.
 TEST(LightThreshold, LeavesTheExpectedImageAsItIs) {
   const SceneDescription scene = test::parse(R"({
     "render": {"width": 16, "height": 16, "samples_per_pixel": 1024, "max_depth": 3, "light_sampling": "nee"},
@@ -287,8 +288,8 @@ TEST(LightThreshold, LeavesTheExpectedImageAsItIs) {
     "background": {"type": "constant", "color": [0, 0, 0]},
     "objects": [
       {"type": "quad", "corner": [-4, 0, -4], "u": [8, 0, 0], "v": [0, 0, 8], "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}},
-      {"type": "quad", "corner": [-0.5, 3, -0.5], "u": [1, 0, 0], "v": [0, 0, 1], "material": {"type": "diffuse_light", "emission": [3, 3, 3]}},
-      {"type": "sphere", "center": [3, 1, 3], "radius": 0.1, "material": {"type": "diffuse_light", "emission": [40, 30, 20]}}
+      {"type": "quad", "corner": [-0.5, 3, -0.5], "u": [1, 0, 0], "v": [0, 0, 1], "material": {"type": "diffuse_light", "emission": [1, 1, 1]}},
+      {"type": "sphere", "center": [3, 1, 3], "radius": 0.1, "material": {"type": "diffuse_light", "emission": [200, 150, 100]}}
     ]})");
   RenderSettings settings = scene.render;
   settings.samples_per_pixel = 1024 / test::kSampleDivisor;

@@ -81,16 +81,34 @@ PT_HD inline ShadowRay<T> shadow_ray_to(const LightSample<T>& light, const Ray<T
 template <class T>
 PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathState<T>& path, const Material<T>& material, const SurfacePoint<T>& at,
                                               const BounceRandom& random, ShadowRay<T>& shadow) {
+  // Roulette of faint light samples (Cycles' light threshold): a light sample that could add less than the threshold
+  // to the sample is kept with probability (that most) / threshold, at least 1/32, and counts 1 / that probability
+  // when it is. The expected value is the same; work towards lights too faint or too far away to matter here is mostly
+  // saved. Twice: first from a bound known before anything is drawn (a sphere's cone, at a diffuse surface or in a
+  // medium), which saves the sample itself (the direction, the material evaluated again, their random numbers: most
+  // of what a light sample costs where its shadow ray is short); then, for the samples kept, from what the shadow
+  // ray would bring unblocked, wherever sampling knows the light's density and brightness beforehand.
+  const T threshold = scene.params.light_threshold;
+  const u32 entry = choose_light(scene.lights, random);
+  T kept = T(1);
+  if constexpr (std::is_floating_point_v<T>) {
+    const bool surface = std::holds_alternative<Lambertian<T>>(material);
+    if (threshold > T(0) && (surface || std::holds_alternative<Isotropic<T>>(material))) {
+      const T reach = light_reach(scene, entry, at.p, path.ray.time, surface ? &at.normal : nullptr);
+      if (reach < T(0)) return;  // the light lies wholly below the surface: the material would give it nothing
+      const T most = max_component(path.throughput) * reach;
+      if (most > T(0) && most < threshold) {
+        kept = max(most / threshold, constant<T>(1.0 / 32));
+        if (!(random.template uniform<T>(kDimLightRoulette) < kept)) return;
+      }
+    }
+  }
   LightSample<T> light;
-  if (!sample_light(scene, choose_light(scene.lights, random), at.p, path.ray.time, random, light)) return;
+  if (!sample_light(scene, entry, at.p, path.ray.time, random, light)) return;
   const ScatterValue<T> value = material_evaluate(material, at, -path.ray.direction, light.direction, scene.textures, scene.texture_data);
   if (!(value.pdf > T(0))) return;
   Color<T> weight = path.throughput * value.value;
-  // Shadow-ray roulette (Cycles' light threshold): a shadow ray whose light, unblocked, could add less than the
-  // threshold to the sample is traced with probability (that most) / threshold, at least 1/32, and counts 1 / that
-  // probability when it is. The expected value is the same; rays towards lights too faint or too far away to matter
-  // at this point are mostly saved. Only where sampling knows the light's density and brightness beforehand.
-  const T threshold = scene.params.light_threshold;
+  if (kept < T(1)) weight = weight / kept;
   if (threshold > T(0) && light.pdf > T(0) && light.brightest > T(0)) {
     const T most = max_component(weight) * light.brightest * mis_weight_over_pdf(light.pdf, value.pdf);
     if (most < threshold) {

@@ -372,6 +372,44 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
   return true;
 }
 
+// What a light sample of `entry` can add at `from`, at most, per unit of the path's throughput, at a material whose
+// f never exceeds 1 / pi (a lambertian surface of albedo at most 1, a medium's phase function): the light's
+// brightest radiance over its density, pmf / (2 pi (1 - cos theta_max)), divided by pi, times the largest cosine
+// with `normal` (where given: a surface) over the cone. Known before sampling only for spheres seen from outside;
+// 0 for every other light; negative where the whole cone lies below the surface (the sample would bring nothing).
+// Floating point only: the fixed-point formats would need the cone's width from the distance rather than its square
+// (sample_light does both).
+template <class T>
+PT_HD inline T light_reach(const SceneView<T>& scene, u32 entry, const Vec3<T>& from, T time, const Vec3<T>* normal) {
+  const LightEntry<T>& light = scene.lights.entries[entry];
+  if (light.primitive == kNoLight || !(light.brightest > T(0))) return T(0);
+  const Primitive<T>& primitive = scene.primitives[light.primitive];
+  Vec3<T> center;
+  T radius;
+  if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) {
+    center = s->center;
+    radius = s->radius;
+  } else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) {
+    center = moving_sphere_center(*m, time);
+    radius = m->radius;
+  } else {
+    return T(0);
+  }
+  const Vec3<T> to_center = center - from;
+  const T d2 = length_squared(to_center), r2 = radius * radius;
+  if (!(d2 > r2)) return T(0);
+  T largest_cosine = T(1);
+  if (normal) {
+    // The angle to the centre less the cone's half-angle: cos(a - t) = cos a cos t + sin a sin t <= cos a + sin t
+    // where cos a >= 0, and cos a cos t + sin t where it is not.
+    const T d = sqrt(d2), sine = radius / d;
+    const T c = dot(*normal, to_center) / d;
+    largest_cosine = min(T(1), (c < T(0) ? c * sqrt(max(T(0), T(1) - sine * sine)) : c) + sine);
+    if (!(largest_cosine > T(0))) return T(-1);
+  }
+  return light.brightest * largest_cosine * (constant<T>(2) * sphere_cone_width(r2, d2)) / light.pmf;
+}
+
 // The density per unit solid angle with which sample_light, from the ray's origin, gives the ray's (unit) direction,
 // where the ray meets the light of `entry` at `hit`, described by `at`.
 template <class T>

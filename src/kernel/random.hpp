@@ -31,7 +31,8 @@ enum RandomDimension : u32 {
   kDimLightAlias = 21,     // ... the alias table's choice between the entry and its alias
   kDimLightPoint = 22,     // pair: the point on the light (or the direction towards it)
   kDimLightTriangle = 24,  // the triangle of an emitting mesh
-  kDimShadowRoulette = 25, // whether a faint shadow ray is traced (kernel/integrator.hpp, sample_next_event)
+  kDimLightRoulette = 25,  // whether a light sample that can add little is drawn at all (kernel/integrator.hpp) ...
+  kDimShadowRoulette = 26, // ... and whether its shadow ray is traced, once the material's side is known
   // A medium draws its free-flight distance from dimension kDimMediumBase + its primitive index, so the draw
   // does not depend on the order in which the acceleration structure visits primitives.
   kDimMediumBase = 64,
