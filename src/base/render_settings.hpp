@@ -12,8 +12,8 @@ namespace pt {
 // How paths find lights: next-event estimation (a shadow ray towards a light chosen at every diffuse bounce,
 // combined with the scattered direction by multiple importance sampling), only by scattering into them, or the
 // default, next-event estimation of the lights where it pays: every emitting shape, and the background only where
-// its radiance varies so much that scattering alone would find it noisily (flat/light_table.hpp,
-// background_pays_as_light); a smooth sky is left to scattering, which samples it as well at no shadow ray's cost.
+// its radiance varies so much that scattering alone would find it noisily (flat/flat_scene.hpp,
+// background_scattering_variance and kBackgroundSamplingVariance); a smooth sky is left to scattering, which samples it as well at no shadow ray's cost.
 enum class LightSampling : u32 { kNone = 0, kNextEvent = 1, kAuto = 2 };
 
 struct RenderSettings {
@@ -28,8 +28,8 @@ struct RenderSettings {
   // Adaptive sampling (film/adaptive.hpp): a pixel whose estimated error, as displayed on a 0..1 scale, falls
   // below this stops taking samples; 0 gives every pixel all its samples.
   double noise_threshold = 0;
-  // Shadow rays that could add less than this to a sample are traced by chance, counted by the inverse of that chance
-  // (kernel/integrator.hpp, sample_next_event); 0 traces every one. Radiance of 1 is white on the display.
+  // Light samples that could add less than this to a sample are taken by chance, counted by the inverse of that chance
+  // (kernel/integrator.hpp, sample_next_event); 0 takes every one. Radiance of 1 is white on the display.
   double light_threshold = 0.01;
 };
 

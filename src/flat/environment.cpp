@@ -27,6 +27,12 @@ void cumulate(const double* weights, u32 n, double total, float* cdf) {
   cdf[n] = 1.0f;
 }
 
+// The solid angle of a texel of row `row` of a width x height equirectangular image: (2 pi / width) (cos theta0 -
+// cos theta1).
+double texel_solid_angle(u32 row, u32 width, u32 height) {
+  return 2 * kPi / width * (std::cos(kPi * row / height) - std::cos(kPi * (row + 1) / height));
+}
+
 }  // namespace
 
 EnvironmentDistribution environment_distribution(std::span<const float> rgb, u32 width, u32 height) {
@@ -85,7 +91,7 @@ Color<double> background_mean_radiance(const FlatScene<T>& scene) {
   // Each texel weighted by its solid angle, (2 pi / width) (cos theta0 - cos theta1).
   Color<double> sum{};
   for (u32 row = 0; row < map.height; ++row) {
-    const double solid_angle = 2 * kPi / map.width * (std::cos(kPi * row / map.height) - std::cos(kPi * (row + 1) / map.height));
+    const double solid_angle = texel_solid_angle(row, map.width, map.height);
     Color<double> row_sum{};
     for (u32 column = 0; column < map.width; ++column) {
       const float* t = scene.environment_rgb.data() + 3 * (static_cast<std::size_t>(row) * map.width + column);
@@ -123,18 +129,16 @@ std::vector<BackgroundPatch> background_patches(const FlatScene<T>& scene) {
       const u32 column1 = std::min(width, column0 + block_x);
       double weight = 0, sum = 0, sum_square = 0;
       for (u32 row = row0; row < row1; ++row) {
-        const double texel_angle = 2 * kPi / width * (std::cos(kPi * row / height) - std::cos(kPi * (row + 1) / height));
+        const double texel_angle = texel_solid_angle(row, width, height);
         for (u32 column = column0; column < column1; ++column) {
           double l;
           if (map.width != 0) {
             const float* t = scene.environment_rgb.data() + 3 * (static_cast<std::size_t>(row) * width + column);
             l = luminance(t[0], t[1], t[2]);
           } else {
-            const double a = 0.5 * (std::cos(kPi * (row + 0.5) / height) + 1);  // kernel/background.hpp's blend
-            const Color<T>& h = scene.background.horizon;
-            const Color<T>& z = scene.background.zenith;
-            l = luminance((1 - a) * static_cast<double>(h.x) + a * static_cast<double>(z.x), (1 - a) * static_cast<double>(h.y) + a * static_cast<double>(z.y),
-                          (1 - a) * static_cast<double>(h.z) + a * static_cast<double>(z.z));
+            // The gradient depends on the height alone: the kernel's own radiance at the row's centre.
+            const Color<T> c = background_radiance(scene.background, Vec3<T>{T(0), T(std::cos(kPi * (row + 0.5) / height)), T(0)});
+            l = luminance(static_cast<double>(c.x), static_cast<double>(c.y), static_cast<double>(c.z));
           }
           weight += texel_angle;
           sum += l * texel_angle;

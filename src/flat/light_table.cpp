@@ -28,49 +28,51 @@ Vec3d to_double(const Vec3<T>& v) {
   return {static_cast<double>(v.x), static_cast<double>(v.y), static_cast<double>(v.z)};
 }
 
-// The mean luminance a texture shows, for the light's share of power: exact for solid colours and images, the
-// mean of the two colours for checkers; noise, whose mean is near its scale of one, counts as one. Only the shares
-// depend on it, never the picture's expected value.
+// What a texture shows, for a light's share of power and for the roulette of faint light samples: its mean
+// luminance (exact for solid colours and images, the mean of the two colours for checkers; noise, whose mean is near
+// its scale of one, counts as one) and its largest channel anywhere (0, not known, for noise). Only the shares and the
+// roulette's chances depend on them, never the picture's expected value.
+struct TextureBrightness {
+  double mean_luminance;
+  double brightest;
+};
+
 template <class T>
-double mean_luminance(const FlatScene<T>& scene, const Texture<T>& texture) {
-  if (const auto* solid = std::get_if<SolidTexture<T>>(&texture)) return luminance(solid->color);
-  if (const auto* checker = std::get_if<CheckerTexture<T>>(&texture)) return 0.5 * (luminance(checker->odd) + luminance(checker->even));
-  if (const auto* checker = std::get_if<UvCheckerTexture<T>>(&texture)) return 0.5 * (luminance(checker->odd) + luminance(checker->even));
+TextureBrightness texture_brightness(const FlatScene<T>& scene, const Texture<T>& texture) {
+  auto largest_of = [](double r, double g, double b) { return std::max({r, g, b}); };
+  auto of_colour = [&](const Color<T>& c) {
+    return TextureBrightness{luminance(c), largest_of(static_cast<double>(c.x), static_cast<double>(c.y), static_cast<double>(c.z))};
+  };
+  auto of_pair = [&](const Color<T>& a, const Color<T>& b) {
+    return TextureBrightness{0.5 * (luminance(a) + luminance(b)), std::max(of_colour(a).brightest, of_colour(b).brightest)};
+  };
+  if (const auto* solid = std::get_if<SolidTexture<T>>(&texture)) return of_colour(solid->color);
+  if (const auto* checker = std::get_if<CheckerTexture<T>>(&texture)) return of_pair(checker->odd, checker->even);
+  if (const auto* checker = std::get_if<UvCheckerTexture<T>>(&texture)) return of_pair(checker->odd, checker->even);
   if (const auto* image = std::get_if<ImageTexture<T>>(&texture)) {
     const std::size_t texels = static_cast<std::size_t>(image->width) * image->height;
     double sum[3] = {0, 0, 0};
-    for (std::size_t i = 0; i < texels; ++i)
-      for (int c = 0; c < 3; ++c) sum[c] += scene.srgb_decode[scene.texels[3 * (image->offset + i) + c]];
-    const double n = std::max<double>(1, static_cast<double>(texels));
-    return luminance(sum[0] / n * static_cast<double>(image->factor.x), sum[1] / n * static_cast<double>(image->factor.y),
-                     sum[2] / n * static_cast<double>(image->factor.z));
-  }
-  return 1;
-}
-
-// The largest channel a texture shows anywhere, for the roulette of faint shadow rays; 0 (not known) for noise.
-template <class T>
-double brightest_channel(const FlatScene<T>& scene, const Texture<T>& texture) {
-  auto largest_of = [](const Color<T>& c) { return std::max({static_cast<double>(c.x), static_cast<double>(c.y), static_cast<double>(c.z)}); };
-  if (const auto* solid = std::get_if<SolidTexture<T>>(&texture)) return largest_of(solid->color);
-  if (const auto* checker = std::get_if<CheckerTexture<T>>(&texture)) return std::max(largest_of(checker->odd), largest_of(checker->even));
-  if (const auto* checker = std::get_if<UvCheckerTexture<T>>(&texture)) return std::max(largest_of(checker->odd), largest_of(checker->even));
-  if (const auto* image = std::get_if<ImageTexture<T>>(&texture)) {
-    const std::size_t texels = static_cast<std::size_t>(image->width) * image->height;
     double most = 0;
-    for (std::size_t i = 0; i < 3 * texels; ++i) {
-      const u8 byte = scene.texels[3 * static_cast<std::size_t>(image->offset) + i];
-      most = std::max<double>(most, image->linear ? byte / 255.0 : scene.srgb_decode[byte]);
-    }
-    return most * largest_of(image->factor);
+    for (std::size_t i = 0; i < texels; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const u8 byte = scene.texels[3 * (image->offset + i) + c];
+        sum[c] += scene.srgb_decode[byte];
+        most = std::max<double>(most, image->linear ? byte / 255.0 : scene.srgb_decode[byte]);
+      }
+    const double n = std::max<double>(1, static_cast<double>(texels));
+    const Color<T>& f = image->factor;
+    return TextureBrightness{
+        luminance(sum[0] / n * static_cast<double>(f.x), sum[1] / n * static_cast<double>(f.y), sum[2] / n * static_cast<double>(f.z)),
+        most * largest_of(static_cast<double>(f.x), static_cast<double>(f.y), static_cast<double>(f.z))};
   }
-  return 0;
+  return TextureBrightness{1, 0};
 }
 
 // The luminance a material emits (0 for materials that do not).
 template <class T>
 double emitted_luminance(const FlatScene<T>& scene, u32 material) {
-  if (const auto* light = std::get_if<DiffuseLight<T>>(&scene.materials[material])) return mean_luminance(scene, scene.textures[light->texture]);
+  if (const auto* light = std::get_if<DiffuseLight<T>>(&scene.materials[material]))
+    return texture_brightness(scene, scene.textures[light->texture]).mean_luminance;
   return 0;
 }
 
@@ -186,7 +188,7 @@ void build_light_table(FlatScene<T>& scene, bool with_background) {
     if (!(power > 0) || !std::isfinite(power)) continue;
     // A mesh's triangles may each have their own material: no one brightness.
     const auto* light = first_cdf == kNoLight ? std::get_if<DiffuseLight<T>>(&scene.materials[primitive.material]) : nullptr;
-    const double brightest = light ? brightest_channel(scene, scene.textures[light->texture]) : 0;
+    const double brightest = light ? texture_brightness(scene, scene.textures[light->texture]).brightest : 0;
     scene.primitive_light[p] = static_cast<u32>(scene.light_entries.size());
     scene.light_entries.push_back(
         LightEntry<T>{p, 0, T(1), T(0), first_cdf, brightest < static_cast<double>(largest<T>()) ? T(brightest) : T(0)});

@@ -152,7 +152,8 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
   const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, 0, &optical_depth}, hit, shadow.distance);
   const LightEntry<T>& light = scene.lights.entries[shadow.entry];
   if (light.primitive == kNoLight) {
-    const T light_density = light.pmf * background_pdf(scene.background, shadow.ray.direction);
+    // The density sample_light drew the direction with (the background's is known then): not looked up again.
+    const T light_density = shadow.light_pdf;
     // A direction that rounds into a black texel of an environment image has no density there: it carries nothing.
     if (blocked || !(light_density > T(0))) return Color<T>{};
     return shadow.weight * background_radiance(scene.background, shadow.ray.direction) *

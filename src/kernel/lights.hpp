@@ -281,6 +281,29 @@ PT_HD inline void sample_spherical_rectangle(const SphericalRectangle<T>& r, T u
   direction = r.x * local.x + r.y * local.y + r.z * local.z;
 }
 
+// The centre (at `time`) and radius of a sphere or moving sphere; false for every other shape.
+template <class T>
+PT_HD inline bool sphere_at(const Primitive<T>& primitive, T time, Vec3<T>& center, T& radius) {
+  if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) {
+    center = s->center;
+    radius = s->radius;
+    return true;
+  }
+  if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) {
+    center = moving_sphere_center(*m, time);
+    radius = m->radius;
+    return true;
+  }
+  return false;
+}
+
+// The density per unit solid angle of directions drawn uniformly over a cone of width 1 - cos theta_max, for a
+// light picked with probability pmf.
+template <class T>
+PT_HD inline T cone_density(T pmf, T width) {
+  return pmf / (constant<T>(2) * pi<T>() * width);
+}
+
 // A direction from `from` towards a point of the chosen light (pass its entry), or false where none can be had.
 // Spheres seen from outside are sampled uniformly over the cone they fill, rectangles uniformly over the solid angle
 // they fill (where it is neither tiny nor nearly a half-space); every other shape uniformly over its area (a mesh: a
@@ -315,7 +338,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
         const T sine = radius / d;
         const T width = sphere_cone_width(sine * sine, T(1));
         out.direction = direction_about(to_center / d, T(1) - u1 * width, u2);
-        out.pdf = light.pmf / (constant<T>(2) * pi<T>() * width);
+        out.pdf = cone_density(light.pmf, width);
         T near, far;
         out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0)
                            ? near
@@ -328,7 +351,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
       if (d2 > r2) {
         const T width = sphere_cone_width(r2, d2);
         out.direction = direction_about(to_center / sqrt(d2), T(1) - u1 * width, u2);
-        out.pdf = light.pmf / (constant<T>(2) * pi<T>() * width);
+        out.pdf = cone_density(light.pmf, width);
         // Where the direction enters the sphere; the tangent's length bounds it where rounding misses the sphere.
         T near, far;
         out.distance = sphere_roots(center, radius, Ray<T>{from, out.direction, time}, near, far) && near > T(0) ? near : sqrt(d2 - r2);
@@ -338,10 +361,10 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
     target = center + radius * uniform_unit_vector(u1, u2);
     return false;
   };
-  if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) {
-    if (sphere(s->center, s->radius)) return true;
-  } else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) {
-    if (sphere(moving_sphere_center(*m, time), m->radius)) return true;
+  Vec3<T> center;
+  T radius;
+  if (sphere_at(primitive, time, center, radius)) {
+    if (sphere(center, radius)) return true;
   } else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
     SphericalRectangle<T> rectangle;
     if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) {
@@ -383,18 +406,9 @@ template <class T>
 PT_HD inline T light_reach(const SceneView<T>& scene, u32 entry, const Vec3<T>& from, T time, const Vec3<T>* normal) {
   const LightEntry<T>& light = scene.lights.entries[entry];
   if (light.primitive == kNoLight || !(light.brightest > T(0))) return T(0);
-  const Primitive<T>& primitive = scene.primitives[light.primitive];
   Vec3<T> center;
   T radius;
-  if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) {
-    center = s->center;
-    radius = s->radius;
-  } else if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) {
-    center = moving_sphere_center(*m, time);
-    radius = m->radius;
-  } else {
-    return T(0);
-  }
+  if (!sphere_at(scene.primitives[light.primitive], time, center, radius)) return T(0);
   const Vec3<T> to_center = center - from;
   const T d2 = length_squared(to_center), r2 = radius * radius;
   if (!(d2 > r2)) return T(0);
@@ -407,7 +421,7 @@ PT_HD inline T light_reach(const SceneView<T>& scene, u32 entry, const Vec3<T>& 
     largest_cosine = min(T(1), (c < T(0) ? c * sqrt(max(T(0), T(1) - sine * sine)) : c) + sine);
     if (!(largest_cosine > T(0))) return T(-1);
   }
-  return light.brightest * largest_cosine * (constant<T>(2) * sphere_cone_width(r2, d2)) / light.pmf;
+  return light.brightest * largest_cosine / (pi<T>() * cone_density(light.pmf, sphere_cone_width(r2, d2)));
 }
 
 // The density per unit solid angle with which sample_light, from the ray's origin, gives the ray's (unit) direction,
@@ -442,18 +456,19 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
       const T d = length(center - from);
       if (d > radius) {
         const T sine = radius / d;
-        return light.pmf / (constant<T>(2) * pi<T>() * sphere_cone_width(sine * sine, T(1)));
+        return cone_density(light.pmf, sphere_cone_width(sine * sine, T(1)));
       }
       return per_area2(constant<T>(4) * pi<T>() * radius, radius);
     } else {
       const T d2 = length_squared(center - from);
       const T r2 = radius * radius;
-      if (d2 > r2) return light.pmf / (constant<T>(2) * pi<T>() * sphere_cone_width(r2, d2));
+      if (d2 > r2) return cone_density(light.pmf, sphere_cone_width(r2, d2));
       return per_area(constant<T>(4) * pi<T>() * r2);
     }
   };
-  if (const auto* s = std::get_if<Sphere<T>>(&primitive.shape)) return sphere(s->center, s->radius);
-  if (const auto* m = std::get_if<MovingSphere<T>>(&primitive.shape)) return sphere(moving_sphere_center(*m, ray.time), m->radius);
+  Vec3<T> center;
+  T radius;
+  if (sphere_at(primitive, ray.time, center, radius)) return sphere(center, radius);
   if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
     SphericalRectangle<T> rectangle;
     if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) return light.pmf / rectangle.solid_angle;

@@ -32,7 +32,7 @@ struct LightEntry {
   T threshold;
   T pmf;
   u32 first_cdf;  // kNoLight but for mesh instances
-  T brightest;    // the largest channel of radiance the light emits anywhere; largest<T>() where not known
+  T brightest;    // the largest channel of radiance the light emits anywhere; 0 where not known (and the background's)
 };
 
 // A rectangular light's frame, the same from wherever the light is seen, so made once (build_light_table) rather
