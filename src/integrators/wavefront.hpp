@@ -1,5 +1,5 @@
 // The wavefront integrator on any device: its path pool and queues in device memory, and its schedule (generate,
-// intersect, escaped, shade per material class, compact, shadow rays; then accumulate), batch after batch, with the pool
+// intersect, escaped, shade per material class, compact, light samples and their shadow rays; then accumulate), batch after batch, with the pool
 // refilled from the batch's remaining work items. Each stage is one launch over its queue.
 #pragma once
 
@@ -15,7 +15,7 @@
 namespace pt {
 
 // Stage names, in the order the per-stage times are reported.
-inline constexpr std::array<const char*, 6> kWavefrontStageNames{"generate", "intersect", "escaped", "shade", "shadow", "accumulate"};
+inline constexpr std::array<const char*, 6> kWavefrontStageNames{"generate", "intersect", "escaped", "shade", "light", "accumulate"};
 
 // Paths in flight: a GPU needs about a million to fill its threads; a CPU a pool that stays near its caches.
 inline constexpr u32 kGpuWavefrontPool = 1u << 20;
@@ -82,7 +82,7 @@ class WavefrontIntegrator {
         stage(kEscaped, queued[kCounterEscaped], WavefrontEscaped<T>{scene_, view_});
         for (u32 m = 0; m < kMaterialClasses; ++m) stage(kShade, queued[kCounterFirstMaterial + m], WavefrontShade<T>{scene_, view_, m});
         const std::array<u32, kWavefrontCounters> shaded = take_counters();
-        stage(kShadow, shaded[kCounterShadow], WavefrontShadow<T>{scene_, view_});
+        stage(kLight, shaded[kCounterLightSamples], WavefrontLightSample<T>{scene_, view_});
         live = shaded[kCounterNextPaths];
         view_.swap_pools();
       }
@@ -104,10 +104,10 @@ class WavefrontIntegrator {
   }
 
  private:
-  enum Stage { kGenerate, kIntersect, kEscaped, kShade, kShadow, kAccumulate };
+  enum Stage { kGenerate, kIntersect, kEscaped, kShade, kLight, kAccumulate };
   static constexpr std::array<const char*, 6> kLaunching{"launching the generate stage", "launching the intersect stage",
                                                          "launching the escaped stage",  "launching the shade stage",
-                                                         "launching the shadow stage",   "launching the accumulate stage"};
+                                                         "launching the light stage",    "launching the accumulate stage"};
 
   u32 pixels() const { return scene_.params.width * scene_.params.height; }
 

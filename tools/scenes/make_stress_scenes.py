@@ -7,6 +7,8 @@ seed makes them reproducible.
   spheres-225mb.json     the same kind of scene grown to about 225 MB (about 2.5 million spheres), valid
   spheres-225mb-bad-tail.json     that scene with a syntax error in its last bytes
   spheres-225mb-bad-last.json     that scene with a negative radius in its last object
+  spheres-inline-196mb.json       1,280,000 spheres each with its own inline Lambertian material (196 MB): the
+                                  large scene whose render should take at most 10 s and twice the file's size
   nested-100k.json       arrays nested 100,000 deep
   bumpy-2m.ply           a bumpy sphere of 2,000,000 triangles (binary PLY, 50 MB), and bumpy-2m.json rendering it
   bumpy-instances.json   bumpy-1m.ply           the same with 1,000,000 triangles, and bumpy-1m.json: diffuse, for the GPU's 1M-triangle figure
@@ -42,11 +44,20 @@ def sphere_lines(count, rng):
         yield f'{{"type": "sphere", "center": [{x}, {y}, {z}], "radius": 0.2, "material": "m{i % 4}"}}'
 
 
-def write_spheres(path, count, last=None, tail="\n  ]\n}\n"):
+def inline_sphere_lines(count, rng):
+    for _ in range(count):
+        x, y, z = (round(rng.uniform(-100, 100), 4) for _ in range(3))
+        radius = round(rng.uniform(0.1, 0.3), 3)
+        r, g, b = (round(rng.uniform(0.05, 0.95), 4) for _ in range(3))
+        yield (f'    {{"type": "sphere", "center": [{x}, {y}, {z}], "radius": {radius}, '
+               f'"material": {{"type": "lambertian", "albedo": [{r}, {g}, {b}]}}}}')
+
+
+def write_spheres(path, count, last=None, tail="\n  ]\n}\n", lines_of=sphere_lines):
     rng = random.Random(14)
     with open(path, "w") as out:
         out.write(HEAD)
-        lines = sphere_lines(count, rng)
+        lines = lines_of(count, rng)
         first = True
         for line in lines:
             if not first:
@@ -140,9 +151,13 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="/tmp/pathtracer-stress")
     parser.add_argument("--meshes-only", action="store_true", help="only the mesh scenes (bumpy spheres, the height field)")
+    parser.add_argument("--large-only", action="store_true", help="only the 196 MB scene of inline materials")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.large_only:
+        write_spheres(out / "spheres-inline-196mb.json", 1_280_000, lines_of=inline_sphere_lines)
+        return
     mesh_scenes(out)
     if args.meshes_only:
         return
@@ -152,6 +167,7 @@ def main():
     write_spheres(out / "spheres-225mb-bad-tail.json", big, tail="\n  ]\n}\n}")
     write_spheres(out / "spheres-225mb-bad-last.json", big,
                   last='{"type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "m0"}')
+    write_spheres(out / "spheres-inline-196mb.json", 1_280_000, lines_of=inline_sphere_lines)
     depth = 100_000
     (out / "nested-100k.json").write_text("[" * depth + "]" * depth + "\n")
     for f in sorted(out.iterdir()):
