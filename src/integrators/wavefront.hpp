@@ -1,6 +1,7 @@
 // The wavefront integrator on any device: its path pool and queues in device memory, and its schedule (generate,
-// intersect, escaped, shade per material class, compact, light samples and their shadow rays; then accumulate), batch after batch, with the pool
-// refilled from the batch's remaining work items. Each stage is one launch over its queue.
+// intersect, escaped, shade per material class, compact, shadow rays; then accumulate), batch after batch, with the pool
+// refilled from the batch's remaining work items. Each stage is one launch over its queue; the shadow rays a shade stage
+// queues are traced in the next intersect launch.
 #pragma once
 
 #include <algorithm>
@@ -15,7 +16,7 @@
 namespace pt {
 
 // Stage names, in the order the per-stage times are reported.
-inline constexpr std::array<const char*, 6> kWavefrontStageNames{"generate", "intersect", "escaped", "shade", "light", "accumulate"};
+inline constexpr std::array<const char*, 5> kWavefrontStageNames{"generate", "intersect", "escaped", "shade", "accumulate"};
 
 // Paths in flight: a GPU needs about a million to fill its threads; a CPU a pool that stays near its caches.
 inline constexpr u32 kGpuWavefrontPool = 1u << 20;
@@ -69,20 +70,23 @@ class WavefrontIntegrator {
       const u32 batch_samples = std::min(samples_per_batch, first_sample + sample_count - batch_first);
       const u32 items = active * batch_samples;
       view_.first_sample = batch_first;
-      u32 next_item = 0, live = 0;
-      while (next_item < items || live > 0) {
+      u32 next_item = 0, live = 0, shadows = 0;
+      while (next_item < items || live > 0 || shadows > 0) {
         const u32 fresh = std::min(pool_capacity_ - live, items - next_item);
         if (fresh > 0) {
           stage(kGenerate, fresh, WavefrontGenerate<T>{scene_, view_, live, next_item});
           next_item += fresh;
           live += fresh;
         }
-        stage(kIntersect, live, WavefrontIntersect<T>{scene_, view_});
+        if (shadows > 0)
+          stage(kIntersect, live + shadows, WavefrontIntersectAndShadow<T>{scene_, view_, live});
+        else
+          stage(kIntersect, live, WavefrontIntersect<T>{scene_, view_});
         const std::array<u32, kWavefrontCounters> queued = take_counters();
         stage(kEscaped, queued[kCounterEscaped], WavefrontEscaped<T>{scene_, view_});
         for (u32 m = 0; m < kMaterialClasses; ++m) stage(kShade, queued[kCounterFirstMaterial + m], WavefrontShade<T>{scene_, view_, m});
         const std::array<u32, kWavefrontCounters> shaded = take_counters();
-        stage(kLight, shaded[kCounterLightSamples], WavefrontLightSample<T>{scene_, view_});
+        shadows = shaded[kCounterShadow];
         live = shaded[kCounterNextPaths];
         view_.swap_pools();
       }
@@ -104,10 +108,10 @@ class WavefrontIntegrator {
   }
 
  private:
-  enum Stage { kGenerate, kIntersect, kEscaped, kShade, kLight, kAccumulate };
-  static constexpr std::array<const char*, 6> kLaunching{"launching the generate stage", "launching the intersect stage",
-                                                         "launching the escaped stage",  "launching the shade stage",
-                                                         "launching the light stage",    "launching the accumulate stage"};
+  enum Stage { kGenerate, kIntersect, kEscaped, kShade, kAccumulate };
+  static constexpr std::array<const char*, 5> kLaunching{"launching the generate stage", "launching the intersect stage",
+                                                         "launching the escaped stage", "launching the shade stage",
+                                                         "launching the accumulate stage"};
 
   u32 pixels() const { return scene_.params.width * scene_.params.height; }
 

@@ -75,68 +75,50 @@ PT_HD inline ShadowRay<T> shadow_ray_to(const LightSample<T>& light, const Ray<T
   return ShadowRay<T>{ray, weight, scatter_pdf, light.distance + light.distance * constant<T>(1.0 / 1024), light.pdf, light.entry, light.triangle};
 }
 
-// Next-event estimation at a scattering point, in two halves: the choice (which light, and whether its sample is
-// taken at all) made before anything is drawn, and the draw itself (a direction towards the light, the material
-// evaluated that way, the shadow ray that will tell whether it is seen). The megakernel draws at once; the
-// wavefront queues the choice for a stage of its own, so that on a GPU the threads that draw a sample run together
-// instead of each warp running the draw for the few of its paths that take one.
+// Next-event estimation at a scattering point: a light picked, a direction towards it, and the shadow ray that will
+// tell whether it is seen (traced by the caller: shadow_contribution). Leaves shadow.entry at kNoLight where there is
+// nothing to trace.
 template <class T>
-struct LightChoice {
-  u32 entry = kNoLight;  // kNoLight: no light sample here
-  T kept = T(1);         // the chance the faint-light roulette kept the sample with (it counts 1 / kept)
-};
-
-// Roulette of faint light samples (Cycles' light threshold): a light sample that could add less than the threshold to
-// the sample is kept with probability (that most) / threshold, at least 1/32, and counts 1 / that probability when it
-// is. The expected value is the same; work towards lights too faint or too far away to matter here is mostly saved.
-// Twice: first here, from a bound known before anything is drawn (a sphere's cone, at a diffuse surface or in a
-// medium), which saves the sample itself (the direction, the material evaluated again, their random numbers: most of
-// what a light sample costs where its shadow ray is short); then in draw_light_sample, for the samples kept, from what
-// the shadow ray would bring unblocked, wherever sampling knows the light's density and brightness beforehand.
-template <class T>
-PT_HD inline LightChoice<T> choose_light_sample(const SceneView<T>& scene, const PathState<T>& path, const Material<T>& material,
-                                                const SurfacePoint<T>& at, const BounceRandom& random) {
-  LightChoice<T> choice;
-  choice.entry = choose_light(scene.lights, random);
+PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathState<T>& path, const Material<T>& material, const SurfacePoint<T>& at,
+                                              const BounceRandom& random, ShadowRay<T>& shadow) {
+  // Roulette of faint light samples (Cycles' light threshold): a light sample that could add less than the threshold
+  // to the sample is kept with probability (that most) / threshold, at least 1/32, and counts 1 / that probability
+  // when it is. The expected value is the same; work towards lights too faint or too far away to matter here is mostly
+  // saved. Twice: first from a bound known before anything is drawn (a sphere's cone, at a diffuse surface or in a
+  // medium), which saves the sample itself (the direction, the material evaluated again, their random numbers: most
+  // of what a light sample costs where its shadow ray is short); then, for the samples kept, from what the shadow
+  // ray would bring unblocked, wherever sampling knows the light's density and brightness beforehand.
+  const T threshold = scene.params.light_threshold;
+  const u32 entry = choose_light(scene.lights, random);
+  T kept = T(1);
   if constexpr (std::is_floating_point_v<T>) {
-    const T threshold = scene.params.light_threshold;
     const bool surface = std::holds_alternative<Lambertian<T>>(material);
     if (threshold > T(0) && (surface || std::holds_alternative<Isotropic<T>>(material))) {
-      const T reach = light_reach(scene, choice.entry, at.p, path.ray.time, surface ? &at.normal : nullptr);
-      if (reach < T(0)) return {};  // the light lies wholly below the surface: the material would give it nothing
+      const T reach = light_reach(scene, entry, at.p, path.ray.time, surface ? &at.normal : nullptr);
+      if (reach < T(0)) return;  // the light lies wholly below the surface: the material would give it nothing
       const T most = max_component(path.throughput) * reach;
       if (most > T(0) && most < threshold) {
-        choice.kept = max(most / threshold, constant<T>(1.0 / 32));
-        if (!(random.template uniform<T>(kDimLightRoulette) < choice.kept)) return {};
+        kept = max(most / threshold, constant<T>(1.0 / 32));
+        if (!(random.template uniform<T>(kDimLightRoulette) < kept)) return;
       }
     }
   }
-  return choice;
-}
-
-// The light sample of `choice` drawn from the path as it reached the scattering point `at` (before it scatters), and
-// the shadow ray towards it (traced by the caller: shadow_contribution). False where there is nothing to trace.
-template <class T>
-PT_HOST_NOINLINE PT_HD bool draw_light_sample(const SceneView<T>& scene, const PathState<T>& path, const Material<T>& material,
-                                              const SurfacePoint<T>& at, const BounceRandom& random, const LightChoice<T>& choice,
-                                              ShadowRay<T>& shadow) {
-  const T threshold = scene.params.light_threshold;
   LightSample<T> light;
-  if (!sample_light(scene, choice.entry, at.p, path.ray.time, random, light)) return false;
+  if (!sample_light(scene, entry, at.p, path.ray.time, random, light)) return;
   const ScatterValue<T> value = material_evaluate(material, at, -path.ray.direction, light.direction, scene.textures, scene.texture_data);
-  if (!(value.pdf > T(0))) return false;
+  if (!(value.pdf > T(0))) return;
   Color<T> weight = path.throughput * value.value;
-  if (choice.kept < T(1)) weight = weight / choice.kept;
+  if (kept < T(1)) weight = weight / kept;
   if (threshold > T(0) && light.pdf > T(0) && light.brightest > T(0)) {
     const T most = max_component(weight) * light.brightest * mis_weight_over_pdf(light.pdf, value.pdf);
     if (most < threshold) {
       const T keep = max(most / threshold, constant<T>(1.0 / 32));
-      if (!(random.template uniform<T>(kDimShadowRoulette) < keep)) return false;
+      if (!(random.template uniform<T>(kDimShadowRoulette) < keep)) return;
       weight = weight / keep;
     }
   }
   shadow = shadow_ray_to(light, spawn_ray(at, light.direction, path.ray.time), weight, value.pdf);
-  return true;
+  ++path.shadow_rays;
 }
 
 // exp(-optical_depth), the share of light a constant medium lets through; most shadow rays cross no medium and skip
@@ -192,32 +174,18 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
          (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
 }
 
-// Where a path's ray met `hit`: the material there and the point as shading sees it.
+// The path hit something: it gathers the emission there, picks a light to sample (next-event estimation: the shadow
+// ray is left for the caller to trace), and scatters. Returns whether it goes on (with its new ray); either way the
+// bounce is counted.
 template <class T>
-struct ShadingPoint {
-  const Material<T>* material;
-  SurfacePoint<T> at;
-};
-
-template <class T>
-PT_HD inline ShadingPoint<T> shading_point(const SceneView<T>& scene, const Ray<T>& ray, const Hit<T>& hit) {
+PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random, ShadowRay<T>& shadow) {
+  shadow.entry = kNoLight;
+  const u32 bounce = path.bounce++;
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
   const bool needs_uv = material_needs_uv(material, scene.textures);
-  return {&material, describe_hit(primitive, scene.triangle_attributes, scene.meshes, ray, hit, needs_uv, material_needs_tangent(material))};
-}
-
-// The path hit something: it gathers the emission there, chooses whether and which light to sample (next-event
-// estimation: `take_light_sample(choice, material, at, random)` is called with the path not yet scattered, and
-// draws the sample or queues it), and scatters. Returns whether it goes on (with its new ray); either way the bounce
-// is counted.
-template <class T, class TakeLightSample>
-PT_HD inline bool shade_path(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random,
-                             TakeLightSample&& take_light_sample) {
-  const u32 bounce = path.bounce++;
-  const ShadingPoint<T> shading = shading_point(scene, path.ray, hit);
-  const Material<T>& material = *shading.material;
-  const SurfacePoint<T>& at = shading.at;
+  const SurfacePoint<T> at =
+      describe_hit(primitive, scene.triangle_attributes, scene.meshes, path.ray, hit, needs_uv, material_needs_tangent(material));
   // Emission counts with the throughput of the path that reached it (the seed dropped this factor), weighted against
   // light sampling where that could have found it.
   T weight = T(1);
@@ -227,10 +195,8 @@ PT_HD inline bool shade_path(const SceneView<T>& scene, PathState<T>& path, cons
   }
   path.radiance += path.throughput * material_emitted(material, at, scene.textures, scene.texture_data) * weight;
   const BounceRandom bounce_random{&random, bounce};
-  if (scene.params.next_event && scene.lights.count > 0 && path.bounce < scene.params.max_depth && material_samples_lights(material)) {
-    const LightChoice<T> choice = choose_light_sample(scene, path, material, at, bounce_random);
-    if (choice.entry != kNoLight) take_light_sample(choice, material, at, bounce_random);
-  }
+  if (scene.params.next_event && scene.lights.count > 0 && path.bounce < scene.params.max_depth && material_samples_lights(material))
+    sample_next_event(scene, path, material, at, bounce_random, shadow);
   Scatter<T> scatter;
   if (!material_scatter(material, path.ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) return false;
   path.throughput *= scatter.attenuation;
@@ -244,17 +210,6 @@ PT_HD inline bool shade_path(const SceneView<T>& scene, PathState<T>& path, cons
     path.throughput = path.throughput / q;
   }
   return true;
-}
-
-// shade_path drawing its light sample at once: the shadow ray is left in `shadow` for the caller to trace (its entry
-// is kNoLight where there is none).
-template <class T>
-PT_HD inline bool path_shade(const SceneView<T>& scene, PathState<T>& path, const Hit<T>& hit, const SampleRandom& random, ShadowRay<T>& shadow) {
-  shadow.entry = kNoLight;
-  return shade_path(scene, path, hit, random,
-                    [&](const LightChoice<T>& choice, const Material<T>& material, const SurfacePoint<T>& at, const BounceRandom& bounce_random) {
-                      if (draw_light_sample(scene, path, material, at, bounce_random, choice, shadow)) ++path.shadow_rays;
-                    });
 }
 
 // The material class (variant index) a hit is shaded with: the wavefront integrator queues hits by it.

@@ -14,8 +14,8 @@ namespace pt {
 
 inline constexpr u32 kMaterialClasses = static_cast<u32>(std::variant_size_v<Material<float>>);
 
-// Queue counters: the paths that continue, the paths that escaped, the light samples, and one queue per material class.
-enum WavefrontCounter : u32 { kCounterNextPaths = 0, kCounterEscaped = 1, kCounterLightSamples = 2, kCounterFirstMaterial = 3 };
+// Queue counters: the paths that continue, the paths that escaped, the shadow rays, and one queue per material class.
+enum WavefrontCounter : u32 { kCounterNextPaths = 0, kCounterEscaped = 1, kCounterShadow = 2, kCounterFirstMaterial = 3 };
 inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClasses;
 
 // What the stages keep of each path between them, each field listed once as (type, array, member of the state it
@@ -44,23 +44,19 @@ inline constexpr u32 kWavefrontCounters = kCounterFirstMaterial + kMaterialClass
   FIELD(u32, triangle, triangle)
 #define PT_PATH_HIT_TAGS(TAG)
 
-// The light samples the shade stage chose, drawn and traced by the light stage: the choice, the path's slot in the
-// current pool (where its state before scattering and its hit still are), where it went on in the next pool (kNoLight:
-// it ended, and its result is final but for this sample's share), and its work item.
-// (The choice's two members are listed apart: a LightChoice<double> inside would be padded.)
-template <class T>
-struct QueuedLightSample {
-  T kept;
-  u32 entry, slot, next_slot, item;
-  PT_HD LightChoice<T> choice() const { return LightChoice<T>{entry, kept}; }
-};
-#define PT_LIGHT_SAMPLE_FIELDS(FIELD) \
-  FIELD(T, kept, kept)                \
-  FIELD(u32, entry, entry)            \
-  FIELD(u32, slot, slot)              \
-  FIELD(u32, next_slot, next_slot)    \
-  FIELD(u32, item, item)
-#define PT_LIGHT_SAMPLE_TAGS(TAG)
+// The shadow rays the shade stage queued, traced in the next intersect launch; `item` is the path's work item and
+// `slot` where it went on in the next pool (kNoLight: it ended, and its result is final but for this ray's share).
+#define PT_SHADOW_FIELDS(FIELD)            \
+  FIELD(Vec3<T>, origin, ray.origin)       \
+  FIELD(Vec3<T>, direction, ray.direction) \
+  FIELD(T, time, ray.time)                 \
+  FIELD(Color<T>, weight, weight)          \
+  FIELD(T, scatter_pdf, scatter_pdf)       \
+  FIELD(T, distance, distance)             \
+  FIELD(T, light_pdf, light_pdf)           \
+  FIELD(u32, entry, entry)                 \
+  FIELD(u32, triangle, triangle)
+#define PT_SHADOW_TAGS(TAG) TAG(u32, item) TAG(u32, slot)
 
 #define PT_DECLARE_ARRAY(Type, name, ...) Type* name;
 #define PT_ADD_BYTES(Type, name, ...) +sizeof(Type)
@@ -93,11 +89,15 @@ struct PathPool {
   }
 };
 
-// The queued light samples.
+// The queued shadow rays.
 template <class T>
-struct LightSampleQueue {
-  PT_SOA_POOL(LightSampleQueue, QueuedLightSample<T>, PT_LIGHT_SAMPLE_FIELDS, PT_LIGHT_SAMPLE_TAGS)
-  PT_HD void store(u32 i, const QueuedLightSample<T>& sample) const { store_state(i, sample); }
+struct ShadowQueue {
+  PT_SOA_POOL(ShadowQueue, ShadowRay<T>, PT_SHADOW_FIELDS, PT_SHADOW_TAGS)
+  PT_HD void store(u32 i, const ShadowRay<T>& shadow, u32 work_item, u32 next_slot) const {
+    store_state(i, shadow);
+    item[i] = work_item;
+    slot[i] = next_slot;
+  }
 };
 
 // The hits of a pool's paths.
@@ -112,7 +112,7 @@ template <class T>
 struct WavefrontView {
   PathPool<T> current, next;
   PathHits<T> hits;
-  LightSampleQueue<T> light_samples;
+  ShadowQueue<T> shadows;
   u32* escaped;
   // The material queues one after another, pool_capacity entries each. One pointer, not an array of them: a kernel
   // that picks an array element by a run-time index makes SYCL compilers keep the whole kernel object in local
@@ -129,10 +129,10 @@ struct WavefrontView {
   // samples depend only on the pixel and the sample number, and are added in sample order); null: all of them.
   const u32* active_pixels = nullptr;
 
-  // Bytes of one path in flight: two pools (current and next), its hit, its light sample, and a slot in the escaped
+  // Bytes of one path in flight: two pools (current and next), its hit, its shadow ray, and a slot in the escaped
   // queue and in every material queue.
   static constexpr u32 kBytesPerPath =
-      2 * PathPool<T>::kBytesPerPath + PathHits<T>::kBytesPerPath + LightSampleQueue<T>::kBytesPerPath + (1 + kMaterialClasses) * sizeof(u32);
+      2 * PathPool<T>::kBytesPerPath + PathHits<T>::kBytesPerPath + ShadowQueue<T>::kBytesPerPath + (1 + kMaterialClasses) * sizeof(u32);
 
   // visit(array, entries) for every array, sized for `pool_capacity` paths and `work_items` results (host side:
   // allocation).
@@ -142,7 +142,7 @@ struct WavefrontView {
     current.for_each_array(sized);
     next.for_each_array(sized);
     hits.for_each_array(sized);
-    light_samples.for_each_array(sized);
+    shadows.for_each_array(sized);
     sized(escaped);
     this->pool_capacity = pool_capacity;
     visit(material_queues, static_cast<std::size_t>(pool_capacity) * kMaterialClasses);
@@ -215,8 +215,8 @@ PT_HD inline void wavefront_escaped(const SceneView<T>& scene, const WavefrontVi
   wavefront_finish(w, path, w.current.item[slot]);
 }
 
-// Stage 4, once per material class: shade and scatter; paths that go on are compacted into the next pool, and the
-// light samples chosen are queued with where their share goes.
+// Stage 4, once per material class: shade and scatter; paths that go on are compacted into the next pool, and
+// shadow rays queued with where their share goes.
 template <class T>
 PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView<T>& w, u32 material_class, u32 queue_index) {
   const u32 slot = w.material_queue(material_class)[queue_index];
@@ -224,38 +224,30 @@ PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView
   const u32 item = w.current.item[slot];
   const SampleRandom random = wavefront_random(scene, w, item);
   const Hit<T> hit = w.hits.load(slot);
-  LightChoice<T> light;
-  const bool goes_on =
-      shade_path(scene, path, hit, random, [&](const LightChoice<T>& choice, const Material<T>&, const SurfacePoint<T>&, const BounceRandom&) { light = choice; });
+  ShadowRay<T> shadow;
   u32 next_slot = kNoLight;
-  if (goes_on && path.bounce < scene.params.max_depth) {
+  if (path_shade(scene, path, hit, random, shadow) && path.bounce < scene.params.max_depth) {
     next_slot = queue_push(w.counters + kCounterNextPaths);
     w.next.store(next_slot, path, item);
   } else {
     wavefront_finish(w, path, item);
   }
-  if (light.entry != kNoLight) w.light_samples.store(queue_push(w.counters + kCounterLightSamples), QueuedLightSample<T>{light.kept, light.entry, slot, next_slot, item});
+  if (shadow.entry != kNoLight) w.shadows.store(queue_push(w.counters + kCounterShadow), shadow, item, next_slot);
 }
 
-// Stage 5: the queued light samples drawn, from the path as it reached its hit (still in the current pool), and their
-// shadow rays traced; what each brings is added to its path's radiance, exactly where the megakernel adds it (after
-// the emission of the same bounce, before anything of the next), and its ray counted.
+// Stage 2 too: the shadow rays the last shade stage queued, traced in the intersect launch that follows it (the
+// pools have been swapped since: a path that went on is in the current pool). What each brings is added to its
+// path's radiance exactly where the megakernel adds it, after the emission of the same bounce and before anything
+// of the next (the escaped and shade stages come after this launch).
 template <class T>
-PT_HD inline void wavefront_light_sample(const SceneView<T>& scene, const WavefrontView<T>& w, u32 queue_index) {
-  const QueuedLightSample<T> queued = w.light_samples.load(queue_index);
-  const PathState<T> path = w.current.load(queued.slot);
-  const SampleRandom random = wavefront_random(scene, w, queued.item);
-  const ShadingPoint<T> shading = shading_point(scene, path.ray, w.hits.load(queued.slot));
-  ShadowRay<T> shadow;
-  if (!draw_light_sample(scene, path, *shading.material, shading.at, BounceRandom{&random, path.bounce}, queued.choice(), shadow)) return;
-  const Color<T> contribution = shadow_contribution(scene, shadow, random);
-  if (queued.next_slot != kNoLight) {
-    w.next.radiance[queued.next_slot] += contribution;
-    ++w.next.shadow_rays[queued.next_slot];
-  } else {
-    w.results[queued.item].radiance += contribution;
-    ++w.results[queued.item].rays;
-  }
+PT_HD inline void wavefront_shadow(const SceneView<T>& scene, const WavefrontView<T>& w, u32 queue_index) {
+  const u32 item = w.shadows.item[queue_index];
+  const Color<T> contribution = shadow_contribution(scene, w.shadows.load(queue_index), wavefront_random(scene, w, item));
+  const u32 slot = w.shadows.slot[queue_index];
+  if (slot != kNoLight)
+    w.current.radiance[slot] += contribution;
+  else
+    w.results[item].radiance += contribution;
 }
 
 // Stage 6, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does (`index`
@@ -294,6 +286,23 @@ struct WavefrontIntersect {
   PT_HD void operator()(u32 i) const { wavefront_intersect(scene, view, i); }
 };
 
+// Where shadow rays are queued, one launch for the live paths' closest hits and the shadow rays: threads below
+// `paths` take a path, the rest a shadow ray. A launch of the shadow rays alone, a few for every ten paths, left most
+// of a GPU idle (it ran at a third of the intersect launch's rays per second). Without shadow rays the plain kernel
+// runs: this one needs more registers (92 against 80 on sm_90), which cost the paths' launch 4-9 %.
+template <class T>
+struct WavefrontIntersectAndShadow {
+  SceneView<T> scene;
+  WavefrontView<T> view;
+  u32 paths;
+  PT_HD void operator()(u32 i) const {
+    if (i < paths)
+      wavefront_intersect(scene, view, i);
+    else
+      wavefront_shadow(scene, view, i - paths);
+  }
+};
+
 template <class T>
 struct WavefrontEscaped {
   SceneView<T> scene;
@@ -307,13 +316,6 @@ struct WavefrontShade {
   WavefrontView<T> view;
   u32 material_class;
   PT_HD void operator()(u32 i) const { wavefront_shade(scene, view, material_class, i); }
-};
-
-template <class T>
-struct WavefrontLightSample {
-  SceneView<T> scene;
-  WavefrontView<T> view;
-  PT_HD void operator()(u32 i) const { wavefront_light_sample(scene, view, i); }
 };
 
 template <class T>
