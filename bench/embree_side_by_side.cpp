@@ -1,6 +1,7 @@
 // Embree 3 as the CPU anchor: the same rays (camera rays, diffuse bounces from their hits, shadow rays towards a
 // point above the scene) through Embree's single-ray queries (rtcIntersect1, rtcOccluded1) and through our
-// eight-wide CPU traversal, one thread each, over the same geometry: each mesh once, placed by instances as the
+// eight-wide CPU traversal, one thread each (shadow rays stopping at their first blocker, as the renderer's do, and
+// again by the closest-hit search they used before), over the same geometry: each mesh once, placed by instances as the
 // scene places it, and the scene's other shapes (spheres, quads, triangles) as Embree user geometry that calls our
 // own intersection code. Built only where Debian's libembree-dev is installed; the renderer never depends on it.
 // Usage: pt_embree_side_by_side SCENE [WIDTH HEIGHT [ROUNDS]]
@@ -28,6 +29,7 @@ struct RayBatch {
   std::vector<Ray<float>> rays;
   std::vector<float> t_max;  // infinity, or the distance to the light for shadow rays
   bool shadow = false;
+  bool closest = false;  // a shadow batch walked by our closest-hit search instead of stopping at the first blocker
 };
 
 // The scene's other shapes, as Embree user geometry: their bounds here, their intersection our own.
@@ -192,7 +194,10 @@ std::vector<RayBatch> make_rays(const SceneView<float>& scene, u32 width, u32 he
     shadow.rays.push_back(ray);
     shadow.t_max.push_back(length(light - ray.origin));
   }
-  return {camera, bounce, shadow};
+  RayBatch shadow_closest = shadow;
+  shadow_closest.name = "shadow, closest";
+  shadow_closest.closest = true;
+  return {camera, bounce, shadow, shadow_closest};
 }
 
 struct Timing {
@@ -205,7 +210,9 @@ Timing ours(const SceneView<float>& scene, const RayBatch& batch) {
   const auto start = Clock::now();
   for (std::size_t i = 0; i < batch.rays.size(); ++i) {
     Hit<float> hit{};
-    hits += closest_hit(scene, batch.rays[i], IntersectContext<float>{scene.boundaries, nullptr, 0}, hit, batch.t_max[i]);
+    IntersectContext<float> context{scene.boundaries, nullptr, 0};
+    if (batch.shadow && !batch.closest) context.blocked_before = batch.t_max[i];  // as the renderer's shadow rays towards the sky
+    hits += closest_hit(scene, batch.rays[i], context, hit, batch.t_max[i]);
   }
   return {std::chrono::duration<double>(Clock::now() - start).count(), hits};
 }

@@ -451,6 +451,96 @@ TEST(RectangleLight, UnblockedSamplesReachItAtGrazingAnglesInEveryFormat) {
   expect_every_unblocked_light_sample_reaches_the_light<Fixed<12, 12>>();
 }
 
+// ---- Shadow rays stop at the first hit that blocks them ----
+
+// Counts the box tests of a walk of the scene's binary tree.
+struct BoxTestCounter {
+  u64* count;
+  template <class T>
+  void box_test(const BvhNode<T>&, const BoxRay<T>&, T, T) const {
+    ++*count;
+  }
+  bool keep_walking() const { return true; }
+};
+
+// A wall written before a rectangle light, a 2500th of the way behind it as seen from below, shares its leaf: every
+// light sample from below reaches the light. A walk that stopped at any hit before the shadow ray's end (which lies
+// a 1024th of the way beyond the light's point) would stop at the wall, met first in the leaf.
+template <class T>
+void expect_a_surface_just_behind_the_light_blocks_nothing() {
+  const SceneDescription scene = test::parse(R"({
+    "camera": {"look_from": [0, 1, -5], "look_at": [0, 1, 0], "vertical_fov": 40},
+    "background": {"type": "constant", "color": [0, 0, 0]},
+    "objects": [{"type": "quad", "corner": [-2, 10.004, -2], "u": [4, 0, 0], "v": [0, 0, 4], "material": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}},
+                {"type": "quad", "corner": [-1, 10, -1], "u": [2, 0, 0], "v": [0, 0, 2], "material": {"type": "diffuse_light", "emission": [4, 4, 4]}}]})");
+  const FlatScene<T> flat = flatten_scene<T>(scene, scene.render);
+  ASSERT_EQ(flat.nodes.size(), 1u);             // one leaf holds both,
+  ASSERT_EQ(flat.primitive_light[0], kNoLight);  // the wall first
+  const SceneView<T> view = flat.view();
+  const u32 entry = flat.primitive_light[1];
+  u32 dark = 0;
+  for (u32 i = 0; i < 2000; ++i) {
+    const SampleRandom random = SampleRandom::make(5, i, 0);
+    const Vec3<T> from{T(0.3 * std::sin(i * 0.7)), T(0), T(0.3 * std::cos(i * 1.3))};
+    LightSample<T> light;
+    ASSERT_TRUE(sample_light(view, entry, from, T(0), BounceRandom{&random, 0}, light));
+    const ShadowRay<T> shadow = shadow_ray_to(light, Ray<T>{from, light.direction, T(0)}, Color<T>::splat(T(1)), T(1));
+    if (!(static_cast<double>(shadow_contribution(view, shadow, random).x) > 0)) ++dark;
+  }
+  EXPECT_EQ(dark, 0u);
+}
+
+// Light through a grid of small spheres over a floor: each shadow ray is blocked or not exactly as the closest-hit
+// search says (the closest hit is the light, or nothing and the light reached), and the walks that stop at their
+// first blocker test fewer boxes.
+template <class T>
+void expect_shadow_rays_blocked_as_the_closest_hit_says() {
+  std::string objects = R"({"type": "sphere", "center": [0, 8, 0], "radius": 1, "material": {"type": "diffuse_light", "emission": [4, 4, 4]}})";
+  for (int layer = 0; layer < 6; ++layer)
+    for (int x = -4; x <= 4; ++x)
+      for (int z = -4; z <= 4; ++z)
+        objects += fmt::format(R"(, {{"type": "sphere", "center": [{}, {}, {}], "radius": 0.3, "material": {{"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}}})",
+                               x + 0.37 * layer, 1 + layer, z - 0.21 * layer);
+  const SceneDescription scene = test::parse(R"({"camera": {"look_from": [0, 3, -20], "look_at": [0, 3, 0], "vertical_fov": 40},
+    "background": {"type": "constant", "color": [0, 0, 0]}, "objects": [)" + objects + "]}");
+  const FlatScene<T> flat = flatten_scene<T>(scene, scene.render);
+  const SceneView<T> view = flat.view();
+  u32 light_primitive = 0;
+  while (flat.primitive_light[light_primitive] == kNoLight) ++light_primitive;
+  const u32 entry = flat.primitive_light[light_primitive];
+  u32 blocked = 0, reached = 0;
+  u64 first_blocker_tests = 0, closest_hit_tests = 0;
+  for (u32 i = 0; i < 3000; ++i) {
+    const SampleRandom random = SampleRandom::make(9, i, 0);
+    const Vec3<T> from{T(4.5 * std::sin(i * 0.37)), T(0), T(4.5 * std::cos(i * 0.53))};
+    LightSample<T> light;
+    if (!sample_light(view, entry, from, T(0), BounceRandom{&random, 0}, light)) continue;
+    const ShadowRay<T> shadow = shadow_ray_to(light, Ray<T>{from, light.direction, T(0)}, Color<T>::splat(T(1)), T(1));
+    Hit<T> hit{};
+    T depth = T(0);
+    const bool found = closest_hit_binary(view, shadow.ray, IntersectContext<T>{view.boundaries, &random, 0, &depth}, hit, shadow.distance,
+                                          BoxTestCounter{&closest_hit_tests});
+    const bool seen = found && hit.primitive == light_primitive;
+    EXPECT_EQ(static_cast<double>(shadow_contribution(view, shadow, random).x) > 0, seen) << "sample " << i;
+    (seen ? reached : blocked) += 1;
+    IntersectContext<T> first_blocker{view.boundaries, &random, 0, &depth};
+    first_blocker.blocked_before = shadow.distance - shadow.distance * T(1.0 / 512);
+    first_blocker.light_primitive = light_primitive;
+    Hit<T> any{};
+    EXPECT_EQ(closest_hit_binary(view, shadow.ray, first_blocker, any, shadow.distance, BoxTestCounter{&first_blocker_tests}), found);
+  }
+  EXPECT_GT(blocked, 300u);
+  EXPECT_GT(reached, 300u);
+  EXPECT_LT(static_cast<double>(first_blocker_tests), 0.9 * static_cast<double>(closest_hit_tests));
+}
+
+TEST(ShadowRay, StopsAtItsFirstBlockerWithTheClosestHitsAnswer) {
+  expect_a_surface_just_behind_the_light_blocks_nothing<float>();
+  expect_a_surface_just_behind_the_light_blocks_nothing<double>();
+  expect_shadow_rays_blocked_as_the_closest_hit_says<float>();
+  expect_shadow_rays_blocked_as_the_closest_hit_says<double>();
+}
+
 // ---- The integrators agree bitwise, with light sampling and without ----
 
 // Renders the scene with both integrators (float, 4 samples) and returns the megakernel's ray count.

@@ -127,7 +127,8 @@ struct NoWalkHooks {
 
 // Walks the binary tree rooted at `root` by iterative traversal with a fixed-size stack, calling
 // leaf(first, count, closest) for each leaf the ray enters in front of the closest hit so far; the leaf narrows
-// `closest` and returns whether it found a hit. The scene's tree and each mesh's tree are walked by this.
+// `closest` and returns whether it found a hit, and sets it below zero where the walk can stop (a shadow ray found
+// blocked: SceneLeaf). The scene's tree and each mesh's tree are walked by this.
 template <class T, class Leaf, class Hooks = NoWalkHooks>
 PT_HD inline bool walk_binary(const BvhNode<T>* nodes, u32 root, const BoxRay<T>& box_ray, T& closest, Leaf& leaf, Hooks&& hooks = Hooks{}) {
   const T t_min = hit_distance_min<T>();
@@ -145,6 +146,7 @@ PT_HD inline bool walk_binary(const BvhNode<T>* nodes, u32 root, const BoxRay<T>
     const BvhNode<T>& node = nodes[node_index];
     if (node.count > 0) {
       found |= leaf(node.left_first, node.count, closest);
+      if (closest < T(0)) return found;
     } else {
       u32 near_child = node_index + 1, far_child = node.left_first;
       T near_entry, far_entry;
@@ -317,6 +319,7 @@ PT_HD inline bool walk_wide(const WideBvhNode<T>* nodes, u32 root, const WideRay
         const u32 i = lowest_set_bit(leaves);
         leaves &= leaves - 1u;
         found |= leaf(node.child[i], node.count[i], closest);
+        if (closest < T(0)) return found;
       }
       for (u32 rest = inner_mask; rest != 0; rest &= rest - 1u)  // a leaf may have hit something nearer
         if (entry[lowest_set_bit(rest)] > closest) inner_mask &= ~(1u << lowest_set_bit(rest));
@@ -381,13 +384,15 @@ PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_
 #endif
 }
 
-// The triangles of a mesh leaf, in the mesh's space.
+// The triangles of a mesh leaf, in the mesh's space. A hit nearer than `blocked_before` (a shadow ray's, where the
+// mesh is not the light it aims at) sets `closest` below zero: the walk stops there.
 template <class T>
 struct MeshLeaf {
   const MeshData<T>& meshes;
   u32 first_vertex;
   const Ray<T>& ray;  // in the mesh's space
   Hit<T>& hit;
+  T blocked_before;
   PT_HD bool operator()(u32 first, u32 count, T& closest) const {
     bool found = false;
     for (u32 i = first; i < first + count; ++i) {
@@ -402,6 +407,10 @@ struct MeshLeaf {
         hit.b2 = candidate.b2;
         hit.triangle = i;
         found = true;
+        if (candidate.t < blocked_before) {
+          closest = T(-1);
+          return true;
+        }
       }
     }
     return found;
@@ -421,30 +430,38 @@ PT_HD inline Ray<T> instance_ray(const MeshData<T>& meshes, const MeshInstance<T
   return local;
 }
 
-// A mesh instance: the ray taken into the mesh's space and the mesh's own tree walked.
+// A mesh instance: the ray taken into the mesh's space and the mesh's own tree walked (stopping at a hit nearer than
+// `blocked_before`, which leaves `closest` below zero).
 template <class T>
-PT_HD inline bool intersect_instance(const MeshData<T>& meshes, const MeshInstance<T>& instance, const Ray<T>& ray, T& closest, Hit<T>& hit) {
+PT_HD inline bool intersect_instance(const MeshData<T>& meshes, const MeshInstance<T>& instance, const Ray<T>& ray, T& closest, Hit<T>& hit,
+                                     T blocked_before = T(0)) {
   const Ray<T> local = instance_ray(meshes, instance, ray);
   const MeshRecord& mesh = meshes.meshes[instance.mesh];
-  MeshLeaf<T> leaf{meshes, mesh.first_vertex, local, hit};
+  MeshLeaf<T> leaf{meshes, mesh.first_vertex, local, hit, blocked_before};
   return walk_tree(meshes.nodes, meshes.wide_nodes, mesh.root, mesh.wide_root, local, closest, leaf);
 }
 
-// The primitives of a leaf of the scene's tree.
+// The primitives of a leaf of the scene's tree. A hit that blocks a shadow ray (IntersectContext::blocked_before)
+// sets `closest` below zero: the walk stops, with that hit.
 template <class T>
 struct SceneLeaf {
   const SceneView<T>& scene;
   const Ray<T>& ray;
   const IntersectContext<T>& context;
   Hit<T>& hit;
+  PT_HD bool blocks(u32 primitive) const { return hit.t < context.blocked_before && primitive != context.light_primitive; }
   PT_HD bool operator()(u32 first, u32 count, T& closest) const {
     bool found = false;
     for (u32 i = first; i < first + count; ++i) {
       const Primitive<T>& primitive = scene.primitives[i];
       if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
-        if (intersect_instance(scene.meshes, *instance, ray, closest, hit)) {
+        if (intersect_instance(scene.meshes, *instance, ray, closest, hit, i != context.light_primitive ? context.blocked_before : T(0))) {
           hit.primitive = i;
           found = true;
+          if (blocks(i)) {
+            closest = T(-1);
+            return true;
+          }
         }
         continue;
       }
@@ -454,6 +471,10 @@ struct SceneLeaf {
         hit = candidate;
         hit.primitive = i;
         found = true;
+        if (blocks(i)) {
+          closest = T(-1);
+          return true;
+        }
       }
     }
     return found;

@@ -147,10 +147,19 @@ PT_HD inline bool quad_light_reached(const SceneView<T>& scene, u32 primitive, c
 // length inside)), weighted by MIS against scattering.
 template <class T>
 PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
+  const LightEntry<T>& light = scene.lights.entries[shadow.entry];
   Hit<T> hit{};
   T optical_depth = T(0);
-  const bool blocked = closest_hit(scene, shadow.ray, IntersectContext<T>{scene.boundaries, &random, 0, &optical_depth}, hit, shadow.distance);
-  const LightEntry<T>& light = scene.lights.entries[shadow.entry];
+  IntersectContext<T> context{scene.boundaries, &random, 0, &optical_depth};
+  if constexpr (std::is_floating_point_v<T>) {
+    // The walk stops at the first hit that blocks the ray: any hit for the background; for a shape, a hit on another
+    // primitive before the light's point (the light is met at its point, so such a hit is in front of it whatever
+    // lies nearer), with a margin of a 1024th of the way, far above either distance's rounding. The answer is the
+    // closest hit's; fixed point, whose steps can exceed that margin on short rays, searches for the closest.
+    context.light_primitive = light.primitive;
+    context.blocked_before = light.primitive == kNoLight ? shadow.distance : shadow.distance - shadow.distance * constant<T>(1.0 / 512);
+  }
+  const bool blocked = closest_hit(scene, shadow.ray, context, hit, shadow.distance);
   if (light.primitive == kNoLight) {
     // The density sample_light drew the direction with (the background's is known then): not looked up again.
     const T light_density = shadow.light_pdf;

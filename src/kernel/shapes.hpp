@@ -205,12 +205,17 @@ struct Hit {
 // What intersecting a medium needs besides the ray: its boundary and a random number for the free-flight distance.
 // A shadow ray gives `optical_depth` instead: media do not stop it, they add density x the length of the ray inside
 // them (up to the closest hit so far) to it, and the caller weights by the transmittance exp(-optical_depth).
+// A shadow ray may also give `blocked_before`: a hit nearer than that on any primitive but `light_primitive` (the
+// light it aims at) blocks it whatever else lies nearer, so the walk stops at the first such hit (0: the closest hit
+// is searched for).
 template <class T>
 struct IntersectContext {
   const Primitive<T>* boundaries;
   const SampleRandom* random;
   u32 bounce;
   T* optical_depth = nullptr;
+  T blocked_before = T(0);
+  u32 light_primitive = ~0u;
 };
 
 // ---- Exact products (fixed point of up to 32 bits, ScalarTraits::kExactProducts) ----
