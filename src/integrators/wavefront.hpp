@@ -1,6 +1,6 @@
 // The wavefront integrator on any device: its path pool and queues in device memory, and its schedule (generate,
-// intersect, escaped, shade per material class, compact, shadow rays; then accumulate), batch after batch, with the pool
-// refilled from the batch's remaining work items. Each stage is one launch over its queue; the shadow rays a shade stage
+// intersect, escaped, shade per material class, compact; then accumulate), batch after batch, with the pool refilled
+// from the batch's remaining work items. Each stage is one launch over its queue; the shadow rays a shade stage
 // queues are traced in the next intersect launch.
 #pragma once
 
