@@ -4,7 +4,8 @@
 // again by the closest-hit search they used before), over the same geometry: each mesh once, placed by instances as the
 // scene places it, and the scene's other shapes (spheres, quads, triangles) as Embree user geometry that calls our
 // own intersection code. Built only where Debian's libembree-dev is installed; the renderer never depends on it.
-// Usage: pt_embree_side_by_side SCENE [WIDTH HEIGHT [ROUNDS]]
+// Usage: pt_embree_side_by_side SCENE [WIDTH HEIGHT [ROUNDS [BATCH]]]   (BATCH: only the batch of that name, e.g.
+// "diffuse bounce", so that a profiler's count of `ours` and `embree` is that batch's alone)
 #include <embree3/rtcore.h>
 
 #include <algorithm>
@@ -205,7 +206,8 @@ struct Timing {
   u64 hits;
 };
 
-Timing ours(const SceneView<float>& scene, const RayBatch& batch) {
+// Not inlined, so that a profiler counts each side apart (callgrind with BATCH: docs in BENCHMARKS.md).
+__attribute__((noinline)) Timing ours(const SceneView<float>& scene, const RayBatch& batch) {
   u64 hits = 0;
   const auto start = Clock::now();
   for (std::size_t i = 0; i < batch.rays.size(); ++i) {
@@ -217,7 +219,7 @@ Timing ours(const SceneView<float>& scene, const RayBatch& batch) {
   return {std::chrono::duration<double>(Clock::now() - start).count(), hits};
 }
 
-Timing embree(RTCScene scene, const RayBatch& batch) {
+__attribute__((noinline)) Timing embree(RTCScene scene, const RayBatch& batch) {
   u64 hits = 0;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
@@ -245,7 +247,7 @@ Timing embree(RTCScene scene, const RayBatch& batch) {
 int main(int argc, char** argv) {
   using namespace pt;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s SCENE [WIDTH HEIGHT [ROUNDS]]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s SCENE [WIDTH HEIGHT [ROUNDS [BATCH]]]\n", argv[0]);
     return 2;
   }
   try {
@@ -267,6 +269,7 @@ int main(int argc, char** argv) {
                 flat.primitives.size(), flat.meshes.size(), static_cast<unsigned long long>(triangles), width, height, build, flat.bvh_seconds);
     std::printf("%-15s %9s %11s %11s %9s %9s %8s\n", "rays", "count", "ours Mray/s", "Embree", "ours/Embree", "hits ours", "Embree");
     for (const RayBatch& batch : make_rays(view, width, height)) {
+      if (argc > 5 && batch.name != argv[5]) continue;
       std::vector<double> ours_rate, embree_rate;
       Timing o{}, e{};
       for (int r = 0; r < rounds; ++r) {  // alternately, so that drift in the machine's speed hits both
