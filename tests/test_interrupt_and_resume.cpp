@@ -73,6 +73,21 @@ TEST(ResumedRender, TimeLimitStopsEarly) {
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 30.0);
 }
 
+// The key of a scene file read a piece at a time is that of its whole text, for a file of several pieces (so that
+// checkpoints written before the file was read in pieces still resume), and a file that cannot be read counts as empty.
+TEST(Checkpoint, KeyOfTheFileIsTheKeyOfItsText) {
+  test::TempDir dir;
+  std::string text;
+  for (int i = 0; text.size() < 2600000; ++i) text += "{\"type\": \"sphere\", \"center\": [" + std::to_string(i) + ", 0, 0]},\n";
+  {
+    std::ofstream out(dir / "scene.json", std::ios::binary);
+    out << text;
+  }
+  EXPECT_EQ(checkpoint_key_of_file(dir / "scene.json", "depth 5 seed 1", 3, 2), checkpoint_key(text, "depth 5 seed 1", 3, 2));
+  EXPECT_NE(checkpoint_key_of_file(dir / "scene.json", "depth 5 seed 1", 3, 2), checkpoint_key(text + " ", "depth 5 seed 1", 3, 2));
+  EXPECT_EQ(checkpoint_key_of_file(dir / "missing.json", "depth 5 seed 1", 3, 2), checkpoint_key("", "depth 5 seed 1", 3, 2));
+}
+
 TEST(Checkpoint, RoundTripsAndRefusesAnotherSceneSizeOrSettings) {
   test::TempDir dir;
   const CheckpointKey key = checkpoint_key("{\"scene\": 1}", "depth 5 seed 1", 3, 2);

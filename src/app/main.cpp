@@ -10,11 +10,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <future>
 #include <numeric>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -173,11 +171,8 @@ void check_outputs_are_not_inputs(const RenderOptions& options) {
 
 // What a saved film must match to be resumed: the scene file's bytes and every setting that decides a sample.
 CheckpointKey render_key(const RenderOptions& options, const SceneDescription& scene, const RenderSettings& settings) {
-  std::ifstream in(scene.source, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return checkpoint_key(
-      text.str(),
+  return checkpoint_key_of_file(
+      scene.source,
       fmt::format("depth {} seed {} roulette {} format {} lights {} sampler {} noise threshold {} light threshold {}", settings.max_depth, settings.seed,
                   settings.roulette_depth, options.number_format, light_sampling_name(settings.light_sampling),
                   sampler_name(settings.sampler), settings.noise_threshold, settings.light_threshold),

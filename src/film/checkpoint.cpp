@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstring>
 #include <fstream>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -45,7 +46,7 @@ u32 checksum(const Header& header, std::span<const FilmPixel> film) {
 }
 
 // FNV-1a, 64 bits: a change of any byte of the scene or settings changes the key.
-u64 fnv1a(u64 hash, const std::string& bytes) {
+u64 fnv1a(u64 hash, std::string_view bytes) {
   for (const unsigned char c : bytes) hash = (hash ^ c) * 0x100000001b3ULL;
   return hash;
 }
@@ -55,6 +56,17 @@ u64 fnv1a(u64 hash, const std::string& bytes) {
 CheckpointKey checkpoint_key(const std::string& scene_text, const std::string& settings, u32 width, u32 height) {
   const u64 hash = fnv1a(fnv1a(0xcbf29ce484222325ULL, scene_text), "\n" + settings);
   return CheckpointKey{hash, width, height};
+}
+
+CheckpointKey checkpoint_key_of_file(const std::filesystem::path& scene_file, const std::string& settings, u32 width, u32 height) {
+  std::ifstream in(scene_file, std::ios::binary);
+  std::vector<char> piece(1u << 20);
+  u64 hash = 0xcbf29ce484222325ULL;
+  while (in) {
+    in.read(piece.data(), static_cast<std::streamsize>(piece.size()));
+    hash = fnv1a(hash, std::string_view(piece.data(), static_cast<std::size_t>(in.gcount())));
+  }
+  return CheckpointKey{fnv1a(hash, "\n" + settings), width, height};
 }
 
 void write_checkpoint(const std::filesystem::path& file, const CheckpointKey& key, std::span<const FilmPixel> film, u32 samples_done) {

@@ -21,6 +21,11 @@ struct CheckpointKey {
 // The key of a render: `scene_text` is the scene file's bytes, `settings` every other thing named above, as text.
 CheckpointKey checkpoint_key(const std::string& scene_text, const std::string& settings, u32 width, u32 height);
 
+// The same key made from the scene file, read a piece at a time: the key is made while the flattened scene is held,
+// and a large scene's text (hundreds of megabytes) read whole at that point set the render's peak memory. A file that
+// cannot be read counts as the bytes that could.
+CheckpointKey checkpoint_key_of_file(const std::filesystem::path& scene_file, const std::string& settings, u32 width, u32 height);
+
 struct Checkpoint {
   std::vector<FilmPixel> film;
   u32 samples_done = 0;
