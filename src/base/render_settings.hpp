@@ -13,7 +13,8 @@ namespace pt {
 // combined with the scattered direction by multiple importance sampling), only by scattering into them, or the
 // default, next-event estimation of the lights where it pays: every emitting shape, and the background only where
 // its radiance varies so much that scattering alone would find it noisily (flat/flat_scene.hpp,
-// background_scattering_variance and kBackgroundSamplingVariance); a smooth sky is left to scattering, which samples it as well at no shadow ray's cost.
+// background_scattering_variance and kBackgroundSamplingVariance); a smooth sky is left to scattering, which
+// samples it as well at no shadow ray's cost.
 enum class LightSampling : u32 { kNone = 0, kNextEvent = 1, kAuto = 2 };
 
 struct RenderSettings {

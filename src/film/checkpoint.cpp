@@ -51,22 +51,28 @@ u64 fnv1a(u64 hash, std::string_view bytes) {
   return hash;
 }
 
+constexpr u64 kFnvOffsetBasis = 0xcbf29ce484222325ULL;
+
+// The key once the scene's bytes are folded into `scene_hash`.
+CheckpointKey key_of(u64 scene_hash, const std::string& settings, u32 width, u32 height) {
+  return CheckpointKey{fnv1a(scene_hash, "\n" + settings), width, height};
+}
+
 }  // namespace
 
 CheckpointKey checkpoint_key(const std::string& scene_text, const std::string& settings, u32 width, u32 height) {
-  const u64 hash = fnv1a(fnv1a(0xcbf29ce484222325ULL, scene_text), "\n" + settings);
-  return CheckpointKey{hash, width, height};
+  return key_of(fnv1a(kFnvOffsetBasis, scene_text), settings, width, height);
 }
 
 CheckpointKey checkpoint_key_of_file(const std::filesystem::path& scene_file, const std::string& settings, u32 width, u32 height) {
   std::ifstream in(scene_file, std::ios::binary);
   std::vector<char> piece(1u << 20);
-  u64 hash = 0xcbf29ce484222325ULL;
+  u64 hash = kFnvOffsetBasis;
   while (in) {
     in.read(piece.data(), static_cast<std::streamsize>(piece.size()));
     hash = fnv1a(hash, std::string_view(piece.data(), static_cast<std::size_t>(in.gcount())));
   }
-  return CheckpointKey{fnv1a(hash, "\n" + settings), width, height};
+  return key_of(hash, settings, width, height);
 }
 
 void write_checkpoint(const std::filesystem::path& file, const CheckpointKey& key, std::span<const FilmPixel> film, u32 samples_done) {

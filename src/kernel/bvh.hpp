@@ -449,13 +449,15 @@ struct SceneLeaf {
   const Ray<T>& ray;
   const IntersectContext<T>& context;
   Hit<T>& hit;
-  PT_HD bool blocks(u32 primitive) const { return hit.t < context.blocked_before && primitive != context.light_primitive; }
+  // How near a hit on `primitive` must be to block the ray: 0 (never) for the light it aims at and for other rays.
+  PT_HD T blocked_before(u32 primitive) const { return primitive != context.light_primitive ? context.blocked_before : T(0); }
+  PT_HD bool blocks(u32 primitive) const { return hit.t < blocked_before(primitive); }
   PT_HD bool operator()(u32 first, u32 count, T& closest) const {
     bool found = false;
     for (u32 i = first; i < first + count; ++i) {
       const Primitive<T>& primitive = scene.primitives[i];
       if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
-        if (intersect_instance(scene.meshes, *instance, ray, closest, hit, i != context.light_primitive ? context.blocked_before : T(0))) {
+        if (intersect_instance(scene.meshes, *instance, ray, closest, hit, blocked_before(i))) {
           hit.primitive = i;
           found = true;
           if (blocks(i)) {

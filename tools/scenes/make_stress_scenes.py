@@ -69,6 +69,10 @@ def write_spheres(path, count, last=None, tail="\n  ]\n}\n", lines_of=sphere_lin
         out.write(tail)
 
 
+def large_scene(out):
+    write_spheres(out / "spheres-inline-196mb.json", 1_280_000, lines_of=inline_sphere_lines)
+
+
 def bumpy_sphere(path, rings):
     """A sphere of rings x 2 rings quads (two triangles each) with a bumpy radius, as binary little-endian PLY."""
     segments = 2 * rings
@@ -156,7 +160,7 @@ def main():
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.large_only:
-        write_spheres(out / "spheres-inline-196mb.json", 1_280_000, lines_of=inline_sphere_lines)
+        large_scene(out)
         return
     mesh_scenes(out)
     if args.meshes_only:
@@ -167,7 +171,7 @@ def main():
     write_spheres(out / "spheres-225mb-bad-tail.json", big, tail="\n  ]\n}\n}")
     write_spheres(out / "spheres-225mb-bad-last.json", big,
                   last='{"type": "sphere", "center": [0, 0, 0], "radius": -1, "material": "m0"}')
-    write_spheres(out / "spheres-inline-196mb.json", 1_280_000, lines_of=inline_sphere_lines)
+    large_scene(out)
     depth = 100_000
     (out / "nested-100k.json").write_text("[" * depth + "]" * depth + "\n")
     for f in sorted(out.iterdir()):
