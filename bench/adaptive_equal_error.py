@@ -5,6 +5,11 @@ measures each image's error against a high-sample reference, and prints how much
 and for the noisiest 1 % of the picture as displayed. Only the program and the standard library are used,
 so it runs on machines without NumPy.
 
+The reference is two renders of R samples with different seeds, and an image's squared error is the product of its
+differences from the two: for independent references that product's expectation is the image's own squared error,
+without the references' noise (which, with one reference, is in every error measured and flatters the render with
+more error).
+
   bench/adaptive_equal_error.py PATHTRACER SCENE --size 128x128 --reference-spp 8192 --uniform-spp 64 \\
       --adaptive 0.02:256 --adaptive 0.05:256 [--runs 3] [--references FOLDER] [-- EXTRA PROGRAM OPTIONS]
 """
@@ -51,21 +56,24 @@ def srgb(v):
     return 12.92 * v if v <= 0.0031308 else 1.055 * v ** (1 / 2.4) - 0.055
 
 
-def errors(image, reference, width, height, block=8):
+def errors(image, references, width, height, block=8):
     """RMSE of the linear values; RMSE of the displayed ones (sRGB, clamped, as a PNG holds them); and the noisiest
-    1 % of the picture: the 99th percentile of the displayed RMSE of its 8x8-pixel blocks."""
+    1 % of the picture: the 99th percentile of the displayed RMSE of its 8x8-pixel blocks. Squared differences are
+    products of the differences from two independent references."""
     squared = displayed = 0.0
     blocks = {}
-    for i, (a, r) in enumerate(zip(image, reference)):
-        squared += (a - r) * (a - r)
-        d = (srgb(a) - srgb(r)) ** 2
+    for i, (a, r, q) in enumerate(zip(image, *references)):
+        squared += (a - r) * (a - q)
+        sa = srgb(a)
+        d = (sa - srgb(r)) * (sa - srgb(q))
         displayed += d
         pixel = i // 3
         key = (pixel % width // block, pixel // width // block)
         blocks[key] = blocks.get(key, 0.0) + d
-    n = len(reference)
-    per_block = sorted(math.sqrt(v / (3 * block * block)) for v in blocks.values())
-    return math.sqrt(squared / n), math.sqrt(displayed / n), per_block[min(len(per_block) - 1, int(0.99 * len(per_block)))]
+    n = len(image)
+    root = lambda v: math.sqrt(max(v, 0.0))
+    per_block = sorted(root(v / (3 * block * block)) for v in blocks.values())
+    return root(squared / n), root(displayed / n), per_block[min(len(per_block) - 1, int(0.99 * len(per_block)))]
 
 
 def main():
@@ -85,18 +93,20 @@ def main():
     size = tuple(int(v) for v in args.size.split("x"))
     folder = Path(args.references)
     folder.mkdir(parents=True, exist_ok=True)
-    reference_path = folder / f"{Path(args.scene).stem}-{args.size}-{args.reference_spp}.pfm"
-    if not reference_path.exists():
-        seconds, _ = render(args.program, args.scene, size, args.reference_spp, reference_path, args.extra, seed=987654)
-        print(f"reference: {args.reference_spp} spp in {seconds:.1f} s")
-    reference = read_pfm(reference_path)[2]
+    references = []
+    for seed in (987654, 987655):
+        reference_path = folder / f"{Path(args.scene).stem}-{args.size}-{args.reference_spp}-{seed}.pfm"
+        if not reference_path.exists():
+            seconds, _ = render(args.program, args.scene, size, args.reference_spp, reference_path, args.extra, seed=seed)
+            print(f"reference: {args.reference_spp} spp in {seconds:.1f} s")
+        references.append(read_pfm(reference_path)[2])
 
     def measure(name, spp, threshold):
         times, samples = [], 0.0
         for _ in range(args.runs):
             seconds, samples = render(args.program, args.scene, size, spp, folder / "run.pfm", args.extra, threshold)
             times.append(seconds)
-        rmse, displayed, worst = errors(read_pfm(folder / "run.pfm")[2], reference, *size)
+        rmse, displayed, worst = errors(read_pfm(folder / "run.pfm")[2], references, *size)
         return dict(name=name, seconds=statistics.median(times), spp=samples, rmse=rmse, displayed=displayed, worst=worst)
 
     rows = [measure(f"uniform {args.uniform_spp} spp", args.uniform_spp, None)]
@@ -104,7 +114,7 @@ def main():
         threshold, most = entry.split(":")
         rows.append(measure(f"adaptive {threshold}, at most {most} spp", int(most), float(threshold)))
     base = rows[0]
-    print(f"{Path(args.scene).name} {args.size} {' '.join(args.extra)} (median of {args.runs}; reference {args.reference_spp} spp)")
+    print(f"{Path(args.scene).name} {args.size} {' '.join(args.extra)} (median of {args.runs}; references 2 x {args.reference_spp} spp)")
     print("| sampling | time (s) | mean spp | RMSE linear | RMSE displayed | noisiest 1 % displayed | faster to equal: linear | displayed | noisiest 1 % |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for row in rows:

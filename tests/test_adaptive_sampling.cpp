@@ -138,26 +138,59 @@ TEST(AdaptiveSampling, RenderEndsWhenEveryPixelIsClean) {
   for (float v : image.rgb) EXPECT_FLOAT_EQ(v, 0.5f);
 }
 
-// The estimate itself: on pixels whose samples are drawn with a known spread, the error it reports is near the
-// true standard error of the displayed mean (the square root's slope at 0.25 is 1; averaged over the window, so
-// within about 30 %). Clamped at white, a pixel brighter than white everywhere has no error as displayed.
+// The estimate itself: on pixels whose independent samples are drawn with a known spread, the error it reports at
+// every judgement is near the true standard error of the displayed mean (the square root's slope at 0.25 is 1;
+// averaged over the window, so within about 30 %). Clamped at white, a pixel brighter than white everywhere has no
+// error as displayed.
 TEST(AdaptiveSampling, ErrorEstimatesTheStandardErrorOfTheDisplayedMean) {
-  const u32 width = 40, height = 40, samples = 64;
-  for (double level : {0.25, 3.0}) {
-    test::TestRandom rng(5);
+  const u32 width = 40, height = 40;
+  for (u32 samples : {16u, 20u, 28u, 64u, 80u}) {
+    for (double level : {0.25, 3.0}) {
+      test::TestRandom rng(5);
+      std::vector<FilmPixel> film(width * height, FilmPixel{});
+      for (FilmPixel& p : film)
+        for (u32 s = 0; s < samples; ++s) {
+          const double v = level + 0.1 * (2 * rng.uniform() - 1);  // standard deviation 0.1 / sqrt(3)
+          add_sample(p, SampleResult<double>{Color<double>::splat(v), 1}, s);
+        }
+      const std::vector<float> errors = adaptive_errors(film, width, height, samples);
+      double sum = 0;
+      for (float e : errors) sum += e;
+      const double expected = level < 1 ? (0.1 / std::sqrt(3.0)) / std::sqrt(static_cast<double>(samples)) : 0.0;
+      EXPECT_NEAR(sum / errors.size(), expected, 0.3 * expected + 1e-12) << "level " << level << ", " << samples << " samples";
+    }
+  }
+}
+
+// With stratified samples the estimate follows the stratified mean's error, which is far below that of independent
+// samples: pixels whose value is a step in two dimensions of the sampler (a light seen or not, fog crossed or not)
+// are judged near their true error, not near the independent samples' (an estimate from odd against even samples,
+// which reports the latter, fails this).
+TEST(AdaptiveSampling, ErrorFollowsTheStratifiedSamplersError) {
+  const u32 width = 32, height = 32;
+  const double mean = 0.5 * 0.3 + 0.25 * 0.6;  // the pixels' true value
+  const double independent_sigma = std::sqrt(0.25 * 0.3 * 0.7 + 0.0625 * 0.6 * 0.4) * 0.5 / std::sqrt(mean);  // as displayed
+  for (u32 samples : {16u, 24u, 32u, 64u, 80u, 128u}) {
     std::vector<FilmPixel> film(width * height, FilmPixel{});
-    for (FilmPixel& p : film)
+    double actual = 0;
+    for (u32 i = 0; i < width * height; ++i) {
       for (u32 s = 0; s < samples; ++s) {
-        const double v = level + 0.1 * (2 * rng.uniform() - 1);  // standard deviation 0.1 / sqrt(3)
-        p.r += v, p.g += v, p.b += v;
-        if (s & 1u) p.odd_brightness += static_cast<float>(3 * v);
-        ++p.samples;
+        const SampleRandom random = SampleRandom::make(7, i, s, SamplerKind::kSobol);
+        const double v = 0.5 * (random.uniform<double>(0, 3) < 0.3) + 0.25 * (random.uniform<double>(1, 5) < 0.6);
+        add_sample(film[i], SampleResult<double>{Color<double>::splat(v), 1}, s);
       }
+      const double shown = displayed_brightness(film[i].r / film[i].samples) - displayed_brightness(mean);
+      actual += shown * shown;
+    }
+    actual = std::sqrt(actual / (width * height));
     const std::vector<float> errors = adaptive_errors(film, width, height, samples);
-    double sum = 0;
-    for (float e : errors) sum += e;
-    const double expected = level < 1 ? (0.1 / std::sqrt(3.0)) / std::sqrt(static_cast<double>(samples)) : 0.0;
-    EXPECT_NEAR(sum / errors.size(), expected, 0.3 * expected + 1e-12) << "level " << level;
+    double estimated = 0;
+    for (float e : errors) estimated += e;
+    estimated /= errors.size();
+    const double independent = independent_sigma / std::sqrt(static_cast<double>(samples));
+    std::printf("%u samples: estimated %.4f, true %.4f, independent samples' %.4f\n", samples, estimated, actual, independent);
+    EXPECT_LT(estimated, 0.5 * independent) << samples << " samples";
+    EXPECT_GT(estimated, 0.7 * actual) << samples << " samples";
   }
 }
 

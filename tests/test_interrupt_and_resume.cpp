@@ -124,6 +124,24 @@ TEST(Checkpoint, CutShortOrForeignFileIsRefused) {
   EXPECT_THROW(read_checkpoint(dir / "missing.film", key), InputError);
 }
 
+// A checkpoint of the version whose film kept the odd samples' brightness (same size, other meaning) is refused by
+// name, not resumed into a misjudged adaptive render.
+TEST(Checkpoint, OlderFilmLayoutIsRefusedByName) {
+  test::TempDir dir;
+  const CheckpointKey key = checkpoint_key("scene", "settings", 4, 4);
+  write_checkpoint(dir / "a.film", key, std::vector<FilmPixel>(16), 1);
+  std::string bytes = test::read_text_file(dir / "a.film");
+  ASSERT_EQ(bytes.substr(0, 8), "PTFILM04");
+  bytes[7] = '3';
+  test::write_text_file(dir / "a.film", bytes);
+  try {
+    read_checkpoint(dir / "a.film", key);
+    ADD_FAILURE() << "an older checkpoint was read";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("older version, whose adaptive sampling kept other sums"), std::string::npos) << error.what();
+  }
+}
+
 // One flipped bit anywhere in a checkpoint, in its header, a pixel's sums or the checksum itself, is refused on one
 // line naming the file; once such a film resumed into a wrong image with status 0.
 TEST(Checkpoint, AnyFlippedBitIsRefused) {

@@ -315,7 +315,7 @@ inline bool same_film(const std::vector<FilmPixel>& a, const std::vector<FilmPix
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i)
     if (std::memcmp(&a[i].r, &b[i].r, sizeof(double)) || std::memcmp(&a[i].g, &b[i].g, sizeof(double)) ||
-        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || std::memcmp(&a[i].odd_brightness, &b[i].odd_brightness, sizeof(float)) ||
+        std::memcmp(&a[i].b, &b[i].b, sizeof(double)) || std::memcmp(&a[i].first_brightness, &b[i].first_brightness, sizeof(float)) ||
         a[i].samples != b[i].samples || a[i].rays != b[i].rays || a[i].stopped_at != b[i].stopped_at)
       return false;
   return true;

@@ -17,7 +17,8 @@
 namespace pt {
 namespace {
 
-constexpr char kMagic[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '3'};
+constexpr char kMagic[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '4'};
+constexpr char kMagicOfOddSampleSums[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '3'};
 constexpr char kMagicOf32BytePixels[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '2'};
 constexpr char kMagicWithoutChecksum[8] = {'P', 'T', 'F', 'I', 'L', 'M', '0', '1'};
 
@@ -100,6 +101,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& file, const CheckpointKe
   if (!in.read(reinterpret_cast<char*>(&header), sizeof(header))) throw refuse("not a checkpoint of this program");
   if (std::memcmp(header.magic, kMagicWithoutChecksum, sizeof(kMagic)) == 0) throw refuse("written by an older version, without a checksum");
   if (std::memcmp(header.magic, kMagicOf32BytePixels, sizeof(kMagic)) == 0) throw refuse("written by an older version, without adaptive sampling's sums");
+  if (std::memcmp(header.magic, kMagicOfOddSampleSums, sizeof(kMagic)) == 0)
+    throw refuse("written by an older version, whose adaptive sampling kept other sums");
   if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0) throw refuse("not a checkpoint of this program");
   if (header.pixel_bytes != sizeof(FilmPixel)) throw refuse("written by a version with another film layout");
   if (header.width != key.width || header.height != key.height)

@@ -16,30 +16,35 @@ inline constexpr u32 kAdaptiveWindowRadius = 2;
 // the host and every device agree on it.
 PT_HD inline double displayed_brightness(double linear) { return ::sqrt(linear < 0 ? 0.0 : linear > 1 ? 1.0 : linear); }
 
-// The squared error of a pixel's displayed mean, estimated from its two halves: for independent halves A and B of
-// its samples, |A - B| / 2 = |mean - A| estimates the standard error of the mean. Brightness is the mean of the
-// three channels. A stopped pixel's sums are as they were when it stopped: its error is the one it stopped with.
-PT_HD inline double displayed_squared_error(const FilmPixel& p, u32 samples_done) {
+// The variance of one sample of a pixel, as displayed, estimated from two parts of its n samples (stopped pixels: n
+// as given when they stopped): the first Q, Q the largest power of two below n, and the n - Q after them. Their means
+// A and B differ by noise of variance sigma^2 (1 / Q + 1 / (n - Q)), which gives sigma^2. Brightness is the mean of
+// the three channels. A stopped pixel's sums are as they were when it stopped; its variance per sample is still what
+// it was, whatever its count.
+PT_HD inline double displayed_sample_variance(const FilmPixel& p, u32 samples_done) {
   const u32 given = p.stopped_at != 0 ? p.stopped_at : samples_done;
-  const double odd_samples = static_cast<double>(given / 2);
-  if (p.samples == 0 || odd_samples == 0) return 0.0;
-  // Non-finite samples left out are too rare to move the estimate: the halves are taken as equal in size.
-  const double mean = (p.r + p.g + p.b) / (3.0 * p.samples);
-  const double odd_mean = static_cast<double>(p.odd_brightness) / (3.0 * odd_samples);
-  const double error = displayed_brightness(mean) - displayed_brightness(odd_mean);
-  return error * error;
+  if (p.samples == 0 || given < 2) return 0.0;
+  const u32 first = first_samples_below(given), rest = given - first;
+  const double first_mean = static_cast<double>(p.first_brightness) / (3.0 * first);
+  const double rest_mean = (p.r + p.g + p.b - static_cast<double>(p.first_brightness)) / (3.0 * rest);
+  const double difference = displayed_brightness(first_mean) - displayed_brightness(rest_mean);
+  return difference * difference / (1.0 / first + 1.0 / rest);
 }
 
-// The error of pixel (x, y) as adaptive sampling judges it: the root mean square of the displayed errors of the
-// window's pixels (those inside the image), always summed in the same order.
+// The error of pixel (x, y)'s displayed mean as adaptive sampling judges it: the variance per sample averaged over
+// the window's pixels (those inside the image; always summed in the same order), over the pixel's own count. The
+// window's neighbours lend their variance, not their error: a neighbour that stopped early keeps its error, and
+// counted as an error it would hold the pixels around it above the threshold however many samples they took.
 PT_HD inline double adaptive_error(const FilmPixel* film, u32 width, u32 height, u32 x, u32 y, u32 samples_done) {
   const u32 x0 = x >= kAdaptiveWindowRadius ? x - kAdaptiveWindowRadius : 0, y0 = y >= kAdaptiveWindowRadius ? y - kAdaptiveWindowRadius : 0;
   const u32 x1 = x + kAdaptiveWindowRadius < width ? x + kAdaptiveWindowRadius : width - 1;
   const u32 y1 = y + kAdaptiveWindowRadius < height ? y + kAdaptiveWindowRadius : height - 1;
   double sum = 0;
   for (u32 j = y0; j <= y1; ++j)
-    for (u32 i = x0; i <= x1; ++i) sum += displayed_squared_error(film[static_cast<std::size_t>(j) * width + i], samples_done);
-  return ::sqrt(sum / static_cast<double>((x1 - x0 + 1) * (y1 - y0 + 1)));
+    for (u32 i = x0; i <= x1; ++i) sum += displayed_sample_variance(film[static_cast<std::size_t>(j) * width + i], samples_done);
+  const u32 own = film[static_cast<std::size_t>(y) * width + x].samples;
+  if (own == 0) return 0.0;
+  return ::sqrt(sum / (static_cast<double>((x1 - x0 + 1) * (y1 - y0 + 1)) * static_cast<double>(own)));
 }
 
 // Judges every pixel still taking samples after `samples_done` samples: `stops[i]` becomes samples_done where the

@@ -248,29 +248,47 @@ PT_HD inline SampleResult<T> trace_sample(const SceneView<T>& scene, u32 x, u32 
 
 // One pixel of the film: the sum of its finite samples (in double, so long renders lose no precision),
 // how many there were, and how many rays they cost. Non-finite samples are left out and counted by the host
-// as requested minus accumulated. Adaptive sampling (film/adaptive.hpp) keeps two more numbers: the brightness
-// (r + g + b) of the odd-numbered samples, whose mean against the whole mean estimates the pixel's error, and the
-// sample count at which the pixel was judged clean and stopped (0 while it takes samples). Everything a pixel
-// needs is here, so bands sent to other devices or processes and saved films carry it.
+// as requested minus accumulated. Adaptive sampling (kernel/adaptive.hpp) keeps two more numbers: the brightness
+// (r + g + b) summed over the pixel's first Q samples, Q the largest power of two below the number of samples given
+// (first_brightness: its mean against that of the samples after them estimates the pixel's error), and the sample
+// count at which the pixel was judged clean and stopped (0 while it takes samples). Everything a pixel needs is
+// here, so bands sent to other devices or processes and saved films carry it.
 struct FilmPixel {
   double r, g, b;
-  float odd_brightness;
+  float first_brightness;
   u32 samples;
   u32 rays;
   u32 stopped_at;
 };
 
+// The largest power of two below `count` (count >= 2): the samples whose sum first_brightness keeps.
+PT_HD inline u32 first_samples_below(u32 count) {
+  u32 v = count - 1;
+  v |= v >> 1;
+  v |= v >> 2;
+  v |= v >> 4;
+  v |= v >> 8;
+  v |= v >> 16;
+  return (v >> 1) + 1;
+}
+
 // Adds sample number `sample` to a film pixel; a non-finite sample is left out (and so counted as dropped).
 // Brightness is a plain sum of the channels: no product a compiler could fuse differently in two kernels.
+// Before a sample whose number is a power of two, the brightness so far becomes first_brightness: the first 2^k
+// samples of a pixel are one stratified set (kernel/random.hpp, SamplerKind::kSobol), and the samples after them up
+// to any judgement's count (film/adaptive.cpp) are one or two such sets, so the error is judged from means of
+// stratified sets, as the image is made of. (Halves taken sample by sample, odd against even, are no such sets:
+// their difference measures the variance of independent samples, ten times the stratified mean's in the Cornell
+// box's fog.)
 template <class T>
 PT_HD inline void add_sample(FilmPixel& pixel, const SampleResult<T>& result, u32 sample) {
+  if (sample != 0 && (sample & (sample - 1u)) == 0) pixel.first_brightness = static_cast<float>(pixel.r + pixel.g + pixel.b);
   pixel.rays += result.rays;
   if (!is_finite(result.radiance)) return;
   const double r = static_cast<double>(result.radiance.x), g = static_cast<double>(result.radiance.y), b = static_cast<double>(result.radiance.z);
   pixel.r += r;
   pixel.g += g;
   pixel.b += b;
-  if (sample & 1u) pixel.odd_brightness += static_cast<float>(r + g + b);
   ++pixel.samples;
 }
 
