@@ -15,8 +15,8 @@ if [[ $steps == *tests* ]]; then
 fi
 if [[ $steps == *bench* ]]; then
   for scene in cornell-box cornell-smoke meshes; do
-    python3 bench/adaptive_equal_error.py "$PT" "scenes/$scene.json" --size 512x512 --reference-spp 16384 --uniform-spp 128 \
-      --adaptive 0.004:1024 --adaptive 0.008:1024 --adaptive 0.016:1024 --runs 3 --references "$OUT/references" -- --backend cuda |
+    python3 bench/adaptive_equal_error.py "$PT" "scenes/$scene.json" --size 1024x1024 --reference-spp 4096 --uniform-spp 256 \
+      --adaptive 0.006:4096 --adaptive 0.012:4096 --runs 3 --references "$OUT/references" -- --backend cuda |
       tee -a "$OUT/adaptive.txt"
   done
 fi
