@@ -24,6 +24,7 @@ PT_HD inline double displayed_brightness(double linear) { return ::sqrt(linear <
 PT_HD inline double displayed_sample_variance(const FilmPixel& p, u32 samples_done) {
   const u32 given = p.stopped_at != 0 ? p.stopped_at : samples_done;
   if (p.samples == 0 || given < 2) return 0.0;
+  // Non-finite samples left out are too rare to move the estimate: the parts' counts are taken from sample numbers.
   const u32 first = first_samples_below(given), rest = given - first;
   const double first_mean = static_cast<double>(p.first_brightness) / (3.0 * first);
   const double rest_mean = (p.r + p.g + p.b - static_cast<double>(p.first_brightness)) / (3.0 * rest);
