@@ -3,9 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
+#include "backends/registry.hpp"
+#include "film/film.hpp"
 #include "flat/bvh_builder.hpp"
 #include "kernel/fixed_point.hpp"
 #include "loading/scene_loader.hpp"
@@ -691,6 +694,36 @@ TEST(BvhBuilder, FloatBoxesContainTheirDoubleBoxes) {
       ASSERT_GT(static_cast<double>(std::nextafter(f.lo[axis], largest<float>())), box.lo[axis]);
       ASSERT_LT(static_cast<double>(std::nextafter(f.hi[axis], -largest<float>())), box.hi[axis]);
     }
+  }
+}
+
+}  // namespace
+}  // namespace pt
+
+namespace pt {
+namespace {
+
+// Flattening that lets go of the description as it goes (the render command's, for large scenes' memory) gives the
+// flat scene of the one that keeps it: the same image, bit for bit; the description keeps its source and loses its
+// objects, materials, textures and texels. Scenes with an image texture, a medium and many objects.
+TEST(FlattenReleasing, GivesTheSameImageAndLetsTheDescriptionGo) {
+  for (const char* name : {"tiny.json", "seed-default.json", "book2-final.json"}) {
+    SceneDescription scene = load_scene_file(test::scene_path(name));
+    RenderSettings settings = scene.render;
+    settings.width = 24;
+    settings.height = 16;
+    settings.samples_per_pixel = 4;
+    const FlatScene<float> kept = flatten_scene<float>(scene, settings);
+    const std::size_t texels = scene.texels.size();
+    const FlatScene<float> released = flatten_scene_releasing<float>(scene, settings);
+    EXPECT_TRUE(scene.objects.empty() && scene.materials.empty() && scene.textures.empty() && scene.texels.empty()) << name;
+    EXPECT_EQ(released.texels.size(), texels) << name;
+    EXPECT_NE(scene.source.find(name), std::string::npos) << name;
+    EXPECT_EQ(kept.bytes(), released.bytes()) << name;
+    auto renderer = make_backend<float>("cpu", 0, 0);
+    const LinearImage a = render_scene(*renderer, kept).image, b = render_scene(*renderer, released).image;
+    ASSERT_EQ(a.rgb.size(), b.rgb.size());
+    EXPECT_EQ(std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)), 0) << name;
   }
 }
 

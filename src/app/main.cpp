@@ -222,12 +222,13 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     device_seconds = seconds_since(start);
     return made;
   });
-  const SceneDescription scene =
+  SceneDescription scene =
       phases.time("scene load", [&] { return load_scene_file(options.scene, model_references(options.trust_model_paths)); });
   if (!options.quiet)
     for (const std::string& warning : scene.warnings) fmt::print(stderr, "warning: {}\n", escape_control_characters(warning));
   const RenderSettings settings = effective_settings(options, scene);
-  const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene<T>(scene, settings); });
+  // What follows needs only the description's source: its objects, materials and textures go once converted.
+  const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene_releasing<T>(scene, settings); });
   phases.add("  of which BVH build", flat.bvh_seconds);
   check_outputs_are_not_inputs(options);
   const auto wait_start = Clock::now();

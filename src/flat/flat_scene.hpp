@@ -115,6 +115,12 @@ struct SceneDescription;  // scene/scene.hpp
 template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale = 0);
 
+// The same, letting go of the scene's objects, materials, textures and image texels as soon as they are converted
+// (a large scene's description would otherwise be held beside its flat copy through the BVH's build): `scene` keeps
+// its source, settings, camera, background, meshes and warnings.
+template <class T>
+FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale = 0);
+
 // The lights of a flat scene whose primitives, materials, meshes and background are in place: every primitive that
 // emits (an emitting material with some power), and the background where it is not black and `with_background`, in an
 // alias table that picks each by its share of the emitted power (flat/light_table.cpp).

@@ -469,10 +469,33 @@ void drop_copies(std::vector<Primitive<double>>& primitives, const std::vector<T
   origins.resize(kept);
 }
 
+// Puts primitives[i] = the primitive that was at order[i], for a permutation `order`, in place: cycle by cycle, each
+// primitive moved once (a second array of a million primitives is what the large scene's peak would pay otherwise).
+template <class P>
+void place_in_order(std::vector<P>& primitives, const std::vector<u32>& order) {
+  if (order.size() != primitives.size()) throw std::logic_error("the BVH's order is not a permutation of the primitives");
+  std::vector<bool> placed(primitives.size(), false);
+  for (std::size_t start = 0; start < primitives.size(); ++start) {
+    if (placed[start]) continue;
+    const P first = primitives[start];
+    for (std::size_t i = start;;) {
+      placed[i] = true;
+      const std::size_t from = order[i];
+      if (from == start) {
+        primitives[i] = first;
+        break;
+      }
+      primitives[i] = primitives[from];
+      i = from;
+    }
+  }
+}
+
 }  // namespace
 
+// `released`, where the caller gives it, is `scene` itself: its converted parts are let go before the BVH's build.
 template <class T>
-FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale) {
+FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription* released, const RenderSettings& settings, double scale) {
   std::vector<Primitive<double>> primitives, boundaries;
   std::vector<TriangleAttributes<double>> attributes;
   // Where each primitive, boundary and triangle attribute was written, for messages.
@@ -612,7 +635,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     }
   }
   CameraSettings camera = scene.camera;
-  std::vector<Texture<double>> textures = scene.textures;
+  std::vector<Texture<double>> textures = released ? std::move(released->textures) : scene.textures;
   if (scale != 1) {
     for (Primitive<double>& p : primitives) p = scaled(p, scale);
     for (Primitive<double>& p : boundaries) p = scaled(p, scale);
@@ -649,8 +672,17 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
     const double extent = scene_extent(bounds, make_camera<double>(camera, settings.width, settings.height));
     for (u32 i = 0; i < textures.size(); ++i) check_texture_scale(fit, textures[i], fit.texture(i), extent);
   }
+  // A description given to let go of loses each part once it is converted, and nothing after names it: a scene of a
+  // million objects with their own materials holds about 250 bytes of them each, and the converted copies that
+  // follow, the BVH's build above all, would otherwise find them still held.
   for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
+  std::vector<Texture<double>>().swap(textures);
+  if (released) released->written.textures = JsonPathList{};
   for (u32 i = 0; i < scene.materials.size(); ++i) flat.materials.push_back(fit_material(fit, scene.materials[i], fit.material(i)));
+  if (released) {
+    std::vector<Material<double>>().swap(released->materials);
+    released->written.materials = JsonPathList{};
+  }
   std::vector<Primitive<T>> converted;
   converted.reserve(primitives.size());
   for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, scene, primitives[i], origins[i], open, close));
@@ -659,6 +691,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   // The double primitives are converted: freed before the BVH's build, the largest allocation that follows.
   std::vector<Primitive<double>>().swap(primitives);
   std::vector<PrimitiveOrigin>().swap(origins);
+  if (released) released->objects = ObjectList{};  // read by the origins' messages until here
   for (std::size_t k = 0; k < attributes.size(); ++k) {
     const TriangleAttributes<double>& a = attributes[k];
     TriangleAttributes<T> out{};
@@ -674,12 +707,14 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
   }
 
   const auto bvh_start = std::chrono::steady_clock::now();
-  const BuiltBvh<double> bvh = build_bvh(bounds);
+  BuiltBvh<double> bvh = build_bvh(bounds);
+  std::vector<Aabb>().swap(bounds);
   try {
     flat.bvh_depth = bvh.depth;
     flat.nodes.reserve(bvh.nodes.size());
     for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
     flat.wide_nodes = build_wide_bvh<T, double>(bvh.nodes);
+    std::vector<BvhNode<double>>().swap(bvh.nodes);
     make_perlin_tables(flat);
     flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
     if (scene.camera_frames_model) {
@@ -698,10 +733,9 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
         fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                     scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
   }
-  flat.primitives.reserve(converted.size());
-  for (u32 index : bvh.order) flat.primitives.push_back(converted[index]);
-  std::vector<Primitive<T>>().swap(converted);
-  flat.texels = scene.texels;
+  place_in_order(converted, bvh.order);
+  flat.primitives = std::move(converted);
+  flat.texels = released ? std::move(released->texels) : scene.texels;
   flat.srgb_decode = srgb_decode_table();
   flat.samples_per_pixel = settings.samples_per_pixel;
   flat.noise_threshold = settings.noise_threshold;
@@ -717,6 +751,16 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
                                 settings.seed,     settings.roulette_depth, next_event ? 1u : 0u,
                                 settings.sampler,  T(settings.light_threshold)};
   return flat;
+}
+
+template <class T>
+FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale) {
+  return flatten_description<T>(scene, nullptr, settings, scale);
+}
+
+template <class T>
+FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale) {
+  return flatten_description<T>(scene, &scene, settings, scale);
 }
 
 template <class T>
@@ -767,6 +811,7 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
 #define PT_INSTANTIATE_FLAT_SCENE(...)                                                                                                             \
   template struct FlatScene<__VA_ARGS__>;                                                                                                          \
   template FlatScene<__VA_ARGS__> flatten_scene<__VA_ARGS__>(const SceneDescription&, const RenderSettings&, double);                              \
+  template FlatScene<__VA_ARGS__> flatten_scene_releasing<__VA_ARGS__>(SceneDescription&, const RenderSettings&, double);                              \
   template bool closest_hit_brute_force<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&, const Ray<__VA_ARGS__>&, const IntersectContext<__VA_ARGS__>&, \
                                                      Hit<__VA_ARGS__>&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_FLAT_SCENE)
