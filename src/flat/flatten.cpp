@@ -502,6 +502,10 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   std::vector<PrimitiveOrigin> origins, boundary_origins;
   std::vector<std::string> attribute_objects;
   std::vector<MeshPlacementUse> placements;
+  // At least a primitive an object: grown by doubling, a million primitives in double would be copied at a moment
+  // when both the old array and the new one are held.
+  primitives.reserve(scene.objects.size());
+  origins.reserve(scene.objects.size());
   for (std::size_t index = 0; index < scene.objects.size(); ++index) {
     const SceneObject object = scene.objects[index];
     const RigidTransform& xf = object.transform;
@@ -675,6 +679,8 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   // A description given to let go of loses each part once it is converted, and nothing after names it: a scene of a
   // million objects with their own materials holds about 250 bytes of them each, and the converted copies that
   // follow, the BVH's build above all, would otherwise find them still held.
+  flat.textures.reserve(textures.size());
+  flat.materials.reserve(scene.materials.size());
   for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
   std::vector<Texture<double>>().swap(textures);
   if (released) released->written.textures = JsonPathList{};
