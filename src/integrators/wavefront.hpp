@@ -23,10 +23,12 @@ inline constexpr u32 kGpuWavefrontPool = 1u << 20;
 inline constexpr u32 kHostWavefrontPool = 1u << 16;
 
 // Samples per batch so that a batch holds several pools' worth of paths (the pool drains at the end of every
-// batch; with batches of many pools' worth that tail is paid rarely) but its result buffer stays bounded.
-inline u32 wavefront_samples_per_batch(u32 pixels, u32 pool_capacity) {
+// batch; with batches of many pools' worth that tail is paid rarely), at most `most`: for the whole image, 64, so
+// that the result buffer stays bounded; for the pixels adaptive sampling leaves taking samples, as many as that
+// buffer holds (at 64 a pass over a few thousand pixels was cut into batches, each paying the pool's drain).
+inline u32 wavefront_samples_per_batch(u32 pixels, u32 pool_capacity, u64 most = 64) {
   const u64 wanted_items = 32ull * pool_capacity;
-  return static_cast<u32>(std::clamp<u64>((wanted_items + pixels - 1) / pixels, 1, 64));
+  return static_cast<u32>(std::clamp<u64>((wanted_items + pixels - 1) / pixels, 1, std::max<u64>(most, 1)));
 }
 
 template <Device D, class T>
@@ -64,8 +66,7 @@ class WavefrontIntegrator {
     if (active == 0) return;
     view_.pixels = active;
     view_.active_pixels = active < band_pixels ? active_list_ : nullptr;
-    const u32 samples_per_batch =
-        static_cast<u32>(std::min<std::size_t>(wavefront_samples_per_batch(active, pool_capacity_), work_items_ / active));
+    const u32 samples_per_batch = wavefront_samples_per_batch(active, pool_capacity_, work_items_ / active);
     for (u32 batch_first = first_sample; batch_first < first_sample + sample_count; batch_first += samples_per_batch) {
       const u32 batch_samples = std::min(samples_per_batch, first_sample + sample_count - batch_first);
       const u32 items = active * batch_samples;
