@@ -278,8 +278,8 @@ PT_HD inline u32 first_samples_below(u32 count) {
 // samples of a pixel are one stratified set (kernel/random.hpp, SamplerKind::kSobol), and the samples after them up
 // to any judgement's count (film/adaptive.cpp) are one or two such sets, so the error is judged from means of
 // stratified sets, as the image is made of. (Halves taken sample by sample, odd against even, are no such sets:
-// their difference measures the variance of independent samples, ten times the stratified mean's in the Cornell
-// box's fog.)
+// their difference measures the variance of independent samples, ten times the stratified mean's in cornell-smoke's
+// dark fog.)
 template <class T>
 PT_HD inline void add_sample(FilmPixel& pixel, const SampleResult<T>& result, u32 sample) {
   if (sample != 0 && (sample & (sample - 1u)) == 0) pixel.first_brightness = static_cast<float>(pixel.r + pixel.g + pixel.b);
