@@ -697,12 +697,6 @@ TEST(BvhBuilder, FloatBoxesContainTheirDoubleBoxes) {
   }
 }
 
-}  // namespace
-}  // namespace pt
-
-namespace pt {
-namespace {
-
 // Flattening that lets go of the description as it goes (the render command's, for large scenes' memory) gives the
 // flat scene of the one that keeps it: the same image, bit for bit; the description keeps its source and loses its
 // objects, materials, textures and texels. Scenes with an image texture, a medium and many objects.

@@ -33,7 +33,8 @@ PT_HD inline double displayed_sample_variance(const FilmPixel& p, u32 samples_do
 }
 
 // The error of pixel (x, y)'s displayed mean as adaptive sampling judges it: the variance per sample averaged over
-// the window's pixels (those inside the image; always summed in the same order), over the pixel's own count. The
+// the window's pixels (those inside the image; always summed in the same order), over the samples the pixel has been
+// given (counted by sample numbers, as the parts of displayed_sample_variance are). The
 // window's neighbours lend their variance, not their error: a neighbour that stopped early keeps its error, and
 // counted as an error it would hold the pixels around it above the threshold however many samples they took.
 PT_HD inline double adaptive_error(const FilmPixel* film, u32 width, u32 height, u32 x, u32 y, u32 samples_done) {
@@ -43,9 +44,8 @@ PT_HD inline double adaptive_error(const FilmPixel* film, u32 width, u32 height,
   double sum = 0;
   for (u32 j = y0; j <= y1; ++j)
     for (u32 i = x0; i <= x1; ++i) sum += displayed_sample_variance(film[static_cast<std::size_t>(j) * width + i], samples_done);
-  const u32 own = film[static_cast<std::size_t>(y) * width + x].samples;
-  if (own == 0) return 0.0;
-  return ::sqrt(sum / (static_cast<double>((x1 - x0 + 1) * (y1 - y0 + 1)) * static_cast<double>(own)));
+  if (samples_done == 0) return 0.0;
+  return ::sqrt(sum / (static_cast<double>((x1 - x0 + 1) * (y1 - y0 + 1)) * static_cast<double>(samples_done)));
 }
 
 // Judges every pixel still taking samples after `samples_done` samples: `stops[i]` becomes samples_done where the
