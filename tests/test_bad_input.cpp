@@ -11,11 +11,13 @@
 #include <functional>
 #include <future>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "base/mapped_file.hpp"
 #include "image/image_io.hpp"
 #include "kernel/fixed_point.hpp"
 #include "scene/json_positions.hpp"
@@ -313,6 +315,58 @@ TEST(BadSceneIsRejectedGuard, PositionsAreExactInAHandCountedCase) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()), "hand.json:8:55: /objects/1/radius: must be positive, found -1");
   }
+}
+
+TEST(LargeSceneFile, IsReadThroughAMappingWithTheSameObjectsAndErrorPlaces) {
+  // Files of 16 MB and more are mapped, not read whole (base/mapped_file.hpp), and their passed pages let go as the
+  // outline and the objects are read: objects and error places must be those of the text read whole. 2,000 copies
+  // of the valid object with spaces between them, then the hand-counted bad one: the file is about 18 MB.
+  const test::TempDir dir;
+  std::string objects;
+  const std::string spaces(9 << 10, ' ');
+  for (int i = 0; i < 2000; ++i) objects += kValidObject + ",\n" + spaces;
+  const std::string good = test::replaced(with_object(kValidObject), "    {\"type\": \"sphere\"", objects + "    {\"type\": \"sphere\"");
+  const std::string bad = test::replaced(with_object(R"({"type": "sphere", "center": [2, 0, 0], "radius": -1, "material": "white"})"),
+                                         "    {\"type\": \"sphere\"", objects + "    {\"type\": \"sphere\"");
+  ASSERT_GT(bad.size(), std::size_t{17} << 20);
+  test::write_text_file(dir / "good.json", good);
+  test::write_text_file(dir / "bad.json", bad);
+  const SceneDescription mapped = load_scene_file(dir / "good.json");
+  const SceneDescription read = test::parse(good, "good.json");
+  ASSERT_EQ(mapped.objects.size(), 2002u);
+  ASSERT_EQ(mapped.objects.size(), read.objects.size());
+  for (std::size_t i = 0; i < read.objects.size(); i += 97) EXPECT_EQ(mapped.objects[i].shape.index(), read.objects[i].shape.index()) << i;
+  std::string from_text, from_file;
+  try {
+    test::parse(bad, (dir / "bad.json").string());
+  } catch (const InputError& e) {
+    from_text = e.what();
+  }
+  try {
+    load_scene_file(dir / "bad.json");
+  } catch (const InputError& e) {
+    from_file = e.what();
+  }
+  EXPECT_NE(from_text.find(":2008:55: /objects/2001/radius: must be positive, found -1"), std::string::npos) << from_text;
+  EXPECT_EQ(from_file, from_text);
+}
+
+TEST(LargeSceneFile, ShortenedWhileMappedEndsWithOneLineAndStatusOne) {
+  // Pages of a mapping beyond a file's new end cannot be read (SIGBUS): the program must say which file and exit 1,
+  // not crash. The file is cut to one page while mapped, and a page after it read.
+  const test::TempDir dir;
+  const std::filesystem::path path = dir / "shrinking.json";
+  test::write_text_file(path, std::string(1 << 20, ' '));
+  EXPECT_EXIT(
+      {
+        const int fd = ::open(path.c_str(), O_RDONLY);
+        std::unique_ptr<MappedFile> mapped = MappedFile::map(fd, 1 << 20, path.string());
+        if (!mapped || ::truncate(path.c_str(), 4096) != 0) std::_Exit(3);
+        volatile char c = mapped->text()[1 << 19];
+        (void)c;
+        std::_Exit(0);
+      },
+      ::testing::ExitedWithCode(1), "shrinking.json: the file shrank while it was being read");
 }
 
 TEST(NumberOverflow, LiteralBeyondDoubleRangeIsAnInputErrorNamingFileLineColumnAndPath) {

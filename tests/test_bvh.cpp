@@ -721,5 +721,33 @@ TEST(FlattenReleasing, GivesTheSameImageAndLetsTheDescriptionGo) {
   }
 }
 
+TEST(FlattenReleasing, WithoutTheBinaryTreeTheCpuGivesTheSameImage) {
+  // The render command keeps only the wide tree for the CPU backend: the lights' view of the scene's box (the
+  // background's power) and the image must be those of the scene with both trees.
+  for (const char* name : {"seed-default.json", "cornell-box.json", "meshes.json"}) {
+    SceneDescription scene = load_scene_file(test::scene_path(name));
+    RenderSettings settings = scene.render;
+    settings.width = 24;
+    settings.height = 16;
+    settings.samples_per_pixel = 4;
+    const FlatScene<float> both = flatten_scene<float>(scene, settings);
+    const FlatScene<float> wide = flatten_scene_releasing<float>(scene, settings, 0, false);
+    EXPECT_FALSE(both.nodes.empty()) << name;
+    EXPECT_TRUE(wide.nodes.empty()) << name;
+    EXPECT_EQ(both.wide_nodes.size(), wide.wide_nodes.size()) << name;
+    for (int axis = 0; axis < 3; ++axis) {
+      // The box of the bounds in double, padded; the tree's root, built over float boxes, holds it.
+      EXPECT_LE(both.nodes[0].lo[axis], both.scene_lo[axis]) << name;
+      EXPECT_GE(both.nodes[0].hi[axis], both.scene_hi[axis]) << name;
+      EXPECT_EQ(wide.scene_lo[axis], both.scene_lo[axis]) << name;
+      EXPECT_EQ(wide.scene_hi[axis], both.scene_hi[axis]) << name;
+    }
+    auto renderer = make_backend<float>("cpu", 0, 0);
+    const LinearImage a = render_scene(*renderer, both).image, b = render_scene(*renderer, wide).image;
+    ASSERT_EQ(a.rgb.size(), b.rgb.size());
+    EXPECT_EQ(std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)), 0) << name;
+  }
+}
+
 }  // namespace
 }  // namespace pt

@@ -8,7 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <memory>
+#include <string>
 
 #include "flat/bvh_builder.hpp"
 #include "flat/flat_scene.hpp"
@@ -103,6 +106,35 @@ TEST(FlattenMemory, AMeshTakesItsFlatArraysAndTheBuildsTransientArraysAtMost) {
                           << " B/triangle, grown " << grown / triangles << " B/triangle";
   std::printf("%zu triangles: flat arrays %.1f B/triangle, resident memory grown by %.1f B/triangle (bound %.1f)\n", triangles,
               static_cast<double>(flat.bytes()) / triangles, static_cast<double>(grown) / triangles, static_cast<double>(bound) / triangles);
+}
+
+TEST(SceneLoading, ALargeFilesTextIsNotHeldWhileItIsRead) {
+#if PT_TEST_SANITIZED
+  GTEST_SKIP() << "a sanitizer's allocator adds red zones and keeps freed memory in quarantine: resident memory says nothing of the program's own";
+#endif
+  // 64 MB of text that describes little: 2,000 spheres, each followed by 32 KB of spaces. Read into memory, the
+  // text alone would raise the peak by 64 MB; mapped, with the pages the reader has passed let go, by a few steps.
+  const std::filesystem::path file = std::filesystem::temp_directory_path() / ("pathtracer-spaced-" + std::to_string(getpid()) + ".json");
+  {
+    std::ofstream out(file, std::ios::binary);
+    out << R"({"camera": {"look_from": [0, 0, 5], "look_at": [0, 0, 0], "vertical_fov": 40},)" << "\n"
+        << R"("materials": {"grey": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]}}, "objects": [)" << "\n";
+    const std::string spaces(32 << 10, ' ');
+    for (int i = 0; i < 2000; ++i)
+      out << (i ? "," : "") << R"({"type": "sphere", "center": [)" << i << R"(, 0, 0], "radius": 0.5, "material": "grey"})" << spaces;
+    out << "]}\n";
+  }
+  ASSERT_GT(std::filesystem::file_size(file), std::size_t{62} << 20);
+  const std::size_t before = resident_bytes();
+  const std::size_t peak_before = peak_resident_bytes();
+  const SceneDescription scene = load_scene_file(file);
+  const std::size_t peak_after = peak_resident_bytes();
+  std::filesystem::remove(file);
+  ASSERT_EQ(scene.objects.size(), 2000u);
+  // The peak can only have grown from where it was; measured from the resident memory before the load.
+  const std::size_t grown = peak_after > std::max(before, peak_before) ? peak_after - before : 0;
+  EXPECT_LE(grown, std::size_t{24} << 20) << "loading a 64 MB file of 2,000 spheres raised the peak by " << (grown >> 20) << " MB";
+  std::printf("64 MB scene file of 2,000 objects: peak resident memory grown by %.1f MB while loading\n", static_cast<double>(grown) / (1 << 20));
 }
 
 }  // namespace

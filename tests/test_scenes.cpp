@@ -193,4 +193,19 @@ TEST(ObjectList, ReturnsEveryObjectAsStoredInOrder) {
   EXPECT_EQ(list[2].material, written[2].material);
 }
 
+TEST(JsonPathList, ReturnsEveryPathAsWritten) {
+  // Paths are kept as a shared pattern and a number: every path must come back character for character, whatever
+  // its numbers, leading zeros, empty parts, escapes or keys that look like numbers.
+  const std::vector<std::string> written = {
+      "/objects/0/material", "/objects/1/material", "/objects/123456789/material/albedo", "/objects/1234567890/material",
+      "/objects/007/material", "/materials/m1/albedo", "/materials/12/albedo", "/textures/a~1b/color", "", "/", "//", "/a//1",
+      "/a/1/", "/a/1/2/3", "/objects/4294967295", "/objects/0", "/camera", "(model)", "no/slash/9", "/x/-1", "/x/1e3", "/\u0000/5"};
+  JsonPathList list;
+  for (const std::string& path : written) list.push_back(path);
+  for (int i = 0; i < 100000; ++i) list.push_back("/objects/" + std::to_string(i) + "/material");
+  ASSERT_EQ(list.size(), written.size() + 100000);
+  for (std::size_t i = 0; i < written.size(); ++i) EXPECT_EQ(list[i], written[i]) << i;
+  for (int i = 0; i < 100000; i += 997) EXPECT_EQ(list[written.size() + i], "/objects/" + std::to_string(i) + "/material");
+}
+
 }  // namespace pt

@@ -27,6 +27,7 @@
 #include "backends/multi_backend.hpp"
 #include "backends/registry.hpp"
 #include "base/atomic_file.hpp"
+#include "base/free_memory.hpp"
 #include "base/input_file.hpp"
 #include "base/number_formats.hpp"
 #include "film/checkpoint.hpp"
@@ -228,7 +229,9 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     for (const std::string& warning : scene.warnings) fmt::print(stderr, "warning: {}\n", escape_control_characters(warning));
   const RenderSettings settings = effective_settings(options, scene);
   // What follows needs only the description's source: its objects, materials and textures go once converted.
-  const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene_releasing<T>(scene, settings); });
+  // The CPU backend walks only the wide tree: the binary one is not kept (a large scene's largest array after the primitives).
+  const bool binary_tree = options.backend != "cpu";
+  const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene_releasing<T>(scene, settings, 0, binary_tree); });
   phases.add("  of which BVH build", flat.bvh_seconds);
   check_outputs_are_not_inputs(options);
   const auto wait_start = Clock::now();
@@ -577,6 +580,7 @@ std::string closest_name_hint(std::string_view typed, const std::vector<std::str
 int main(int argc, char** argv) {
   using namespace pt;
   const auto program_start = Clock::now();
+  return_large_blocks_when_freed();
   CLI::App app{"pathtracer: a physically based Monte Carlo path tracer for CPUs and GPUs"};
   app.set_version_flag("--version", std::string("pathtracer ") + PT_VERSION);
   app.require_subcommand(1);

@@ -14,6 +14,7 @@ template <class T>
 struct FlatScene {
   std::vector<BvhNode<T>> nodes;
   std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, up to kWideBvhWidth children a node (walked on host CPUs: closest_hit)
+  Vec3<T> scene_lo{}, scene_hi{};          // the root's box as the binary nodes[0] has it, also where those are not kept
   std::vector<Primitive<T>> primitives;
   std::vector<Primitive<T>> boundaries;
   std::vector<TriangleAttributes<T>> triangle_attributes;
@@ -118,8 +119,9 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
 // The same, letting go of the scene's objects, materials, textures and image texels as soon as they are converted
 // (a large scene's description would otherwise be held beside its flat copy through the BVH's build): `scene` keeps
 // its source, settings, camera, background, meshes and warnings.
+// `binary_tree`: whether the binary nodes (walked by GPUs) are kept beside the wide ones (walked by host CPUs).
 template <class T>
-FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale = 0);
+FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale = 0, bool binary_tree = true);
 
 // The lights of a flat scene whose primitives, materials, meshes and background are in place: every primitive that
 // emits (an emitting material with some power), and the background where it is not black and `with_background`, in an

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -272,21 +273,6 @@ Texture<double> scaled(Texture<double> texture, double s) {
   return texture;
 }
 
-// The largest absolute coordinate of any bounds, the camera and its image plane.
-double scene_extent(const std::vector<Aabb>& bounds, const Camera<double>& camera) {
-  double extent = 0;
-  auto grow = [&](const Vec3d& p) { extent = std::max({extent, std::abs(p.x), std::abs(p.y), std::abs(p.z)}); };
-  for (const Aabb& b : bounds)
-    if (b.lo.x <= b.hi.x) {
-      grow(b.lo);
-      grow(b.hi);
-    }
-  grow(camera.origin);
-  grow(camera.lower_left);
-  grow(camera.lower_left + camera.horizontal + camera.vertical);
-  return extent;
-}
-
 // The six faces of a box, outward-facing, moved by the transform.
 std::vector<Quad<double>> box_faces(const BoxSettings& box, const RigidTransform& transform) {
   const Vec3d a = box.min, b = box.max;
@@ -439,8 +425,8 @@ std::optional<ShapeNumbers> shape_numbers(const Primitive<double>& p, const std:
 // Exact copies of a sphere, moving sphere, triangle or quad of the same material (for a triangle, the same normals
 // and uvs too) are drawn once, as the first written: copies are hit at the same distance, where the first found
 // wins, and as lights they would be sampled twice while hit once.
-void drop_copies(std::vector<Primitive<double>>& primitives, const std::vector<TriangleAttributes<double>>& attributes,
-                 std::vector<PrimitiveOrigin>& origins) {
+void drop_copies(std::deque<Primitive<double>>& primitives, const std::vector<TriangleAttributes<double>>& attributes,
+                 std::deque<PrimitiveOrigin>& origins) {
   u64 uncopyable = 0;  // hashes of primitives never dropped are all different
   const std::vector<char> keep = first_of_each(
       primitives.size(),
@@ -491,79 +477,155 @@ void place_in_order(std::vector<P>& primitives, const std::vector<u32>& order) {
   }
 }
 
+// What one object of a description makes, given to a sink one part at a time, in double and world space: its
+// primitives (a box's six faces; a medium after its boundary's primitives), a triangle's normals and uvs, and a
+// mesh's placements. Flattening reads the objects twice through it, once for their extent and once to keep them.
+template <class Sink>
+void make_primitives(const SceneDescription& scene, u32 index, Sink& sink) {
+  const SceneObject object = scene.objects[index];
+  const RigidTransform& xf = object.transform;
+  const PrimitiveOrigin origin{index, false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)};
+  if (const auto* s = std::get_if<Sphere<double>>(&object.shape)) {
+    sink.primitive({Sphere<double>{xf.apply_point(s->center), s->radius}, object.material}, origin);
+  } else if (const auto* s = std::get_if<MovingSphereSettings>(&object.shape)) {
+    const Vec3d c0 = xf.apply_point(s->center0), c1 = xf.apply_point(s->center1);
+    sink.primitive({MovingSphere<double>{c0, s->radius, (c1 - c0) / (s->time1 - s->time0), s->time0}, object.material}, origin);
+  } else if (const auto* t = std::get_if<TriangleSettings>(&object.shape)) {
+    const Vec3d p0 = xf.apply_point(t->vertices[0]), p1 = xf.apply_point(t->vertices[1]), p2 = xf.apply_point(t->vertices[2]);
+    i32 attribute_index = -1;
+    if (t->normals || t->uvs) {
+      TriangleAttributes<double> a{};
+      if (t->normals) {
+        a.has_normals = 1;
+        for (int i = 0; i < 3; ++i) a.normal[i] = normalize(xf.apply_vector((*t->normals)[i]));
+      }
+      if (t->uvs) {
+        a.has_uvs = 1;
+        for (int i = 0; i < 3; ++i) {
+          a.u[i] = (*t->uvs)[i][0];
+          a.v[i] = (*t->uvs)[i][1];
+        }
+      }
+      attribute_index = sink.attributes(a, index);
+    }
+    sink.primitive({Triangle<double>{p0, p1 - p0, p2 - p0, attribute_index}, object.material}, origin);
+  } else if (const auto* q = std::get_if<QuadSettings>(&object.shape)) {
+    sink.primitive({make_quad(xf.apply_point(q->corner), xf.apply_vector(q->u), xf.apply_vector(q->v)), object.material}, origin);
+  } else if (const auto* b = std::get_if<BoxSettings>(&object.shape)) {
+    for (const Quad<double>& face : box_faces(*b, xf)) sink.primitive({face, object.material}, origin);
+  } else if (const auto* m = std::get_if<MeshSettings>(&object.shape)) {
+    const AffineTransform placed = m->transform.then(AffineTransform::from_rigid(xf));
+    const MeshFile& file = *scene.mesh_files[m->file].file;
+    for (const MeshPlacement& placement : file.placements) {
+      if (file.meshes[placement.mesh].triangles.empty()) continue;
+      sink.instance(MeshPlacementUse{m->file, placement.mesh, placement.transform.then(placed), index}, object.material, origin);
+    }
+  } else if (const auto* m = std::get_if<MediumSettings>(&object.shape)) {
+    const RigidTransform boundary_xf = m->boundary_transform.then(xf);
+    const bool box = std::holds_alternative<BoxSettings>(m->boundary);
+    const PrimitiveOrigin boundary_origin{index, true, !boundary_xf.is_identity(), box};
+    const u32 first = sink.boundary_count();
+    if (const auto* s = std::get_if<Sphere<double>>(&m->boundary))
+      sink.boundary({Sphere<double>{boundary_xf.apply_point(s->center), s->radius}, object.material}, boundary_origin);
+    else
+      for (const Quad<double>& face : box_faces(std::get<BoxSettings>(m->boundary), boundary_xf)) sink.boundary({face, object.material}, boundary_origin);
+    sink.primitive({ConstantMedium<double>{first, sink.boundary_count() - first, -1.0 / m->density}, object.material},
+                   PrimitiveOrigin{index, false, !xf.is_identity(), false});
+  }
+}
+
+// The first reading of the objects: the largest coordinate of any bounds (media through their boundaries, meshes
+// once built) and the meshes' placements, nothing kept per object.
+struct ExtentSink {
+  double largest = 0;
+  std::vector<MeshPlacementUse> placements;
+  u32 boundaries = 0;
+
+  void grow(const Aabb& b) {
+    if (b.lo.x <= b.hi.x) largest = std::max({largest, max_component(vmax(b.lo, -b.lo)), max_component(vmax(b.hi, -b.hi))});
+  }
+  void primitive(const Primitive<double>& p, const PrimitiveOrigin&) { grow(geometry_bounds(p, open, close)); }
+  void boundary(const Primitive<double>& p, const PrimitiveOrigin&) {
+    grow(geometry_bounds(p, open, close));
+    ++boundaries;
+  }
+  u32 boundary_count() const { return boundaries; }
+  i32 attributes(const TriangleAttributes<double>&, u32) { return -1; }
+  void instance(const MeshPlacementUse& use, u32, const PrimitiveOrigin&) { placements.push_back(use); }
+  double open = 0, close = 0;
+};
+
+// The second reading: every primitive kept, with where it was written. A double primitive takes 128 bytes: they are
+// kept in a deque, whose blocks go as the primitives are converted.
+struct GatherSink {
+  std::deque<Primitive<double>> primitives;
+  std::deque<PrimitiveOrigin> origins;
+  std::vector<Primitive<double>> boundaries;
+  std::vector<PrimitiveOrigin> boundary_origins;
+  std::vector<TriangleAttributes<double>> triangle_attributes;
+  std::vector<std::string> attribute_objects;
+  u32 placements = 0;
+
+  void primitive(const Primitive<double>& p, const PrimitiveOrigin& origin) {
+    primitives.push_back(p);
+    origins.push_back(origin);
+  }
+  void boundary(const Primitive<double>& p, const PrimitiveOrigin& origin) {
+    boundaries.push_back(p);
+    boundary_origins.push_back(origin);
+  }
+  u32 boundary_count() const { return static_cast<u32>(boundaries.size()); }
+  i32 attributes(const TriangleAttributes<double>& a, u32 object) {
+    triangle_attributes.push_back(a);
+    attribute_objects.push_back("/objects/" + std::to_string(object));
+    return static_cast<i32>(triangle_attributes.size() - 1);
+  }
+  // The instance's mesh field holds its placement's index (in the order of the first reading) until the meshes are built.
+  void instance(const MeshPlacementUse&, u32 material, const PrimitiveOrigin& origin) {
+    primitive({MeshInstance<double>{placements++, kNoTransform}, material}, origin);
+  }
+};
+
+// The largest coordinate of the scene's bounds (`bounds_extent`), the camera and its image plane.
+double scene_extent(double bounds_extent, const Camera<double>& camera) {
+  double extent = bounds_extent;
+  auto grow = [&](const Vec3d& p) { extent = std::max({extent, std::abs(p.x), std::abs(p.y), std::abs(p.z)}); };
+  grow(camera.origin);
+  grow(camera.lower_left);
+  grow(camera.lower_left + camera.horizontal + camera.vertical);
+  return extent;
+}
+
+// The tree over the converted primitives' bounds, in float where the scene's coordinates allow (half the memory of
+// double, as for meshes), its boxes padded for T (padded_node); the binary nodes kept only where asked for.
+// The bounds are let go once the binary tree is built, before the wide one is folded from it.
+template <class T, class S>
+void build_scene_trees(FlatScene<T>& flat, std::vector<Box<S>>& bounds, bool binary_tree, std::vector<u32>& order) {
+  BuiltBvh<S> bvh = build_bvh(bounds);
+  std::vector<Box<S>>().swap(bounds);
+  release_free_memory();
+  order = std::move(bvh.order);
+  flat.bvh_depth = bvh.depth;
+  flat.wide_nodes = build_wide_bvh<T, S>(bvh.nodes);
+  if (binary_tree) {
+    flat.nodes.reserve(bvh.nodes.size());
+    for (const BvhNode<S>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
+  }
+}
+
 }  // namespace
 
-// `released`, where the caller gives it, is `scene` itself: its converted parts are let go before the BVH's build.
+// `released`, where the caller gives it, is `scene` itself: its parts are let go as they are converted.
 template <class T>
-FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription* released, const RenderSettings& settings, double scale) {
-  std::vector<Primitive<double>> primitives, boundaries;
-  std::vector<TriangleAttributes<double>> attributes;
-  // Where each primitive, boundary and triangle attribute was written, for messages.
-  std::vector<PrimitiveOrigin> origins, boundary_origins;
-  std::vector<std::string> attribute_objects;
-  std::vector<MeshPlacementUse> placements;
-  // At least a primitive an object: grown by doubling, a million primitives in double would be copied at a moment
-  // when both the old array and the new one are held.
-  primitives.reserve(scene.objects.size());
-  origins.reserve(scene.objects.size());
-  for (std::size_t index = 0; index < scene.objects.size(); ++index) {
-    const SceneObject object = scene.objects[index];
-    const RigidTransform& xf = object.transform;
-    const std::string pointer = "/objects/" + std::to_string(index);
-    if (const auto* s = std::get_if<Sphere<double>>(&object.shape)) {
-      primitives.push_back({Sphere<double>{xf.apply_point(s->center), s->radius}, object.material});
-    } else if (const auto* s = std::get_if<MovingSphereSettings>(&object.shape)) {
-      const Vec3d c0 = xf.apply_point(s->center0), c1 = xf.apply_point(s->center1);
-      primitives.push_back({MovingSphere<double>{c0, s->radius, (c1 - c0) / (s->time1 - s->time0), s->time0}, object.material});
-    } else if (const auto* t = std::get_if<TriangleSettings>(&object.shape)) {
-      const Vec3d p0 = xf.apply_point(t->vertices[0]), p1 = xf.apply_point(t->vertices[1]), p2 = xf.apply_point(t->vertices[2]);
-      i32 attribute_index = -1;
-      if (t->normals || t->uvs) {
-        TriangleAttributes<double> a{};
-        if (t->normals) {
-          a.has_normals = 1;
-          for (int i = 0; i < 3; ++i) a.normal[i] = normalize(xf.apply_vector((*t->normals)[i]));
-        }
-        if (t->uvs) {
-          a.has_uvs = 1;
-          for (int i = 0; i < 3; ++i) {
-            a.u[i] = (*t->uvs)[i][0];
-            a.v[i] = (*t->uvs)[i][1];
-          }
-        }
-        attribute_index = static_cast<i32>(attributes.size());
-        attributes.push_back(a);
-        attribute_objects.push_back(pointer);
-      }
-      primitives.push_back({Triangle<double>{p0, p1 - p0, p2 - p0, attribute_index}, object.material});
-    } else if (const auto* q = std::get_if<QuadSettings>(&object.shape)) {
-      primitives.push_back({make_quad(xf.apply_point(q->corner), xf.apply_vector(q->u), xf.apply_vector(q->v)), object.material});
-    } else if (const auto* b = std::get_if<BoxSettings>(&object.shape)) {
-      for (const Quad<double>& face : box_faces(*b, xf)) primitives.push_back({face, object.material});
-    } else if (const auto* m = std::get_if<MeshSettings>(&object.shape)) {
-      const AffineTransform placed = m->transform.then(AffineTransform::from_rigid(xf));
-      const MeshFile& file = *scene.mesh_files[m->file].file;
-      for (const MeshPlacement& placement : file.placements) {
-        if (file.meshes[placement.mesh].triangles.empty()) continue;
-        // The instance's mesh field holds its placement's index until the meshes are built.
-        primitives.push_back({MeshInstance<double>{static_cast<u32>(placements.size()), kNoTransform}, object.material});
-        placements.push_back(MeshPlacementUse{m->file, placement.mesh, placement.transform.then(placed), static_cast<u32>(index)});
-      }
-    } else if (const auto* m = std::get_if<MediumSettings>(&object.shape)) {
-      const RigidTransform boundary_xf = m->boundary_transform.then(xf);
-      const u32 first = static_cast<u32>(boundaries.size());
-      if (const auto* s = std::get_if<Sphere<double>>(&m->boundary))
-        boundaries.push_back({Sphere<double>{boundary_xf.apply_point(s->center), s->radius}, object.material});
-      else
-        for (const Quad<double>& face : box_faces(std::get<BoxSettings>(m->boundary), boundary_xf)) boundaries.push_back({face, object.material});
-      primitives.push_back({ConstantMedium<double>{first, static_cast<u32>(boundaries.size()) - first, -1.0 / m->density}, object.material});
-      const bool box = std::holds_alternative<BoxSettings>(m->boundary);
-      boundary_origins.resize(boundaries.size(), PrimitiveOrigin{static_cast<u32>(index), true, !boundary_xf.is_identity(), box});
-    }
-    origins.resize(primitives.size(),
-                   PrimitiveOrigin{static_cast<u32>(index), false, !xf.is_identity(), std::holds_alternative<BoxSettings>(object.shape)});
-  }
-  drop_copies(primitives, attributes, origins);
+FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription* released, const RenderSettings& settings, double scale,
+                                 bool binary_tree) {
+  const double open = scene.camera.shutter_open, close = scene.camera.shutter_close;
+  // The objects are read twice: first for their extent, which the scale and the textures' check need before
+  // anything is converted, so that the description's textures and materials can go before the primitives are made.
+  ExtentSink extent_sink;
+  extent_sink.open = open, extent_sink.close = close;
+  for (u32 index = 0; index < scene.objects.size(); ++index) make_primitives(scene, index, extent_sink);
+  const std::vector<MeshPlacementUse> placements = std::move(extent_sink.placements);
   // Meshes: one build per mesh placed once (in world space) and one per mesh placed more often (in its own space),
   // each instance's primitive pointed at its mesh and transform, and its bounds in world space.
   std::vector<MeshBuild> meshes;
@@ -599,29 +661,9 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
       instance_bounds[i] = mapped_box(meshes[it->second].root(), use.transform);
     }
   }
-
   const double mesh_bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - meshes_start).count();
-  // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
-  if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
-
-  const double open = scene.camera.shutter_open, close = scene.camera.shutter_close;
-  auto all_bounds = [&] {
-    std::vector<Aabb> bounds;
-    bounds.reserve(primitives.size());
-    for (const Primitive<double>& p : primitives) {
-      if (const auto* m = std::get_if<ConstantMedium<double>>(&p.shape)) {
-        Aabb box;
-        for (u32 i = 0; i < m->boundary_count; ++i) box.grow(geometry_bounds(boundaries[m->first_boundary + i], open, close));
-        bounds.push_back(box);
-      } else if (const auto* instance = std::get_if<MeshInstance<double>>(&p.shape)) {
-        bounds.push_back(instance_bounds[instance->mesh]);
-      } else {
-        bounds.push_back(geometry_bounds(p, open, close));
-      }
-    }
-    return bounds;
-  };
-  std::vector<Aabb> bounds = all_bounds();
+  for (const Aabb& b : instance_bounds) extent_sink.grow(b);
+  const double bounds_extent = extent_sink.largest;
 
   // Fixed point: scale all lengths by a power of two (exact in binary) so that what the kernels compute stays in
   // range. Formats with exact products (ScalarTraits::kExactProducts: intersection tests, lengths and light
@@ -633,7 +675,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   if (!(scale > 0)) {
     scale = 1;
     if constexpr (is_fixed_v<T>) {
-      const double extent = scene_extent(bounds, make_camera<double>(scene.camera, settings.width, settings.height));
+      const double extent = scene_extent(bounds_extent, make_camera<double>(scene.camera, settings.width, settings.height));
       const double fit = ScalarTraits<T>::kExactProducts ? static_cast<double>(largest<T>()) / 8 : std::sqrt(static_cast<double>(largest<T>())) / 2;
       if (extent > fit && std::isfinite(extent)) scale = std::exp2(std::floor(std::log2(fit / extent)));
     }
@@ -641,8 +683,6 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   CameraSettings camera = scene.camera;
   std::vector<Texture<double>> textures = released ? std::move(released->textures) : scene.textures;
   if (scale != 1) {
-    for (Primitive<double>& p : primitives) p = scaled(p, scale);
-    for (Primitive<double>& p : boundaries) p = scaled(p, scale);
     for (Texture<double>& t : textures) t = scaled(t, scale);
     camera.look_from = camera.look_from * scale;
     camera.look_at = camera.look_at * scale;
@@ -651,15 +691,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
     for (MeshBuild& m : meshes) m.scale = scale;  // applied as the meshes are converted
     for (AffineTransform& a : instance_maps) a.translation = a.translation * scale;
     for (Aabb& b : instance_bounds) b.lo = b.lo * scale, b.hi = b.hi * scale;
-    bounds = all_bounds();
   }
-  // The instances now point at their meshes and transforms.
-  for (Primitive<double>& p : primitives)
-    if (auto* instance = std::get_if<MeshInstance<double>>(&p.shape)) {
-      const u32 use = instance->mesh;
-      *instance = MeshInstance<double>{instance_mesh[use], instance_transform[use]};
-    }
-
   // Every value of the scene the kernels get, through Fit, which refuses one out of range naming where it was written
   // (in the file's order: camera, background, textures, materials, objects). Before the BVH, which needs finite bounds.
   const Fit<T> fit(scene, scale);
@@ -673,12 +705,13 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
                                   {}};
   if (scene.environment) flatten_environment(fit, scene, flat);
   {
-    const double extent = scene_extent(bounds, make_camera<double>(camera, settings.width, settings.height));
+    // Scaling by a power of two scales the bounds' largest coordinate exactly.
+    const double extent = scene_extent(bounds_extent * scale, make_camera<double>(camera, settings.width, settings.height));
     for (u32 i = 0; i < textures.size(); ++i) check_texture_scale(fit, textures[i], fit.texture(i), extent);
   }
   // A description given to let go of loses each part once it is converted, and nothing after names it: a scene of a
-  // million objects with their own materials holds about 250 bytes of them each, and the converted copies that
-  // follow, the BVH's build above all, would otherwise find them still held.
+  // million objects with their own materials holds about 250 bytes of them each, and the primitives in double and
+  // the BVH's build that follow would otherwise find them still held.
   flat.textures.reserve(textures.size());
   flat.materials.reserve(scene.materials.size());
   for (u32 i = 0; i < textures.size(); ++i) flat.textures.push_back(fit_texture(fit, textures[i], fit.texture(i)));
@@ -688,22 +721,65 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   if (released) {
     std::vector<Material<double>>().swap(released->materials);
     released->written.materials = JsonPathList{};
+    release_free_memory();
   }
+
+  // The second reading of the objects keeps their primitives.
+  GatherSink gathered;
+  for (u32 index = 0; index < scene.objects.size(); ++index) make_primitives(scene, index, gathered);
+  std::deque<Primitive<double>>& primitives = gathered.primitives;
+  std::deque<PrimitiveOrigin>& origins = gathered.origins;
+  std::vector<Primitive<double>>& boundaries = gathered.boundaries;
+  drop_copies(primitives, gathered.triangle_attributes, origins);
+  // Media draw from dimension kDimMediumBase + primitive index: keep that inside 32 bits.
+  if (primitives.size() >= (1ull << 31) - kDimMediumBase) throw InputError(fmt::format("{}: too many primitives", scene.source));
+  if (scale != 1) {
+    for (Primitive<double>& p : primitives) p = scaled(p, scale);
+    for (Primitive<double>& p : boundaries) p = scaled(p, scale);
+  }
+
+  // Each primitive converted with its bounds (a medium's are its boundaries', an instance's its mesh's where placed),
+  // the double primitive let go as it is: the tree's bounds in float where the scene's coordinates allow.
+  const bool float_bounds = float_box_fits(bounds_extent * scale);
+  std::vector<FloatBox> bounds_in_float;
+  std::vector<Aabb> bounds_in_double;
+  (float_bounds ? bounds_in_float.reserve(primitives.size()) : bounds_in_double.reserve(primitives.size()));
+  Aabb scene_box;  // the union in double, the root of the tree: the scene's box as the lights see it
   std::vector<Primitive<T>> converted;
   converted.reserve(primitives.size());
-  for (std::size_t i = 0; i < primitives.size(); ++i) converted.push_back(fit_primitive(fit, scene, primitives[i], origins[i], open, close));
+  for (std::size_t i = 0; !primitives.empty(); ++i) {
+    Primitive<double>& p = primitives.front();
+    Aabb box;
+    if (const auto* m = std::get_if<ConstantMedium<double>>(&p.shape)) {
+      for (u32 k = 0; k < m->boundary_count; ++k) box.grow(geometry_bounds(boundaries[m->first_boundary + k], open, close));
+    } else if (auto* instance = std::get_if<MeshInstance<double>>(&p.shape)) {
+      const u32 use = instance->mesh;  // the placement's index until here; now its mesh and transform
+      box = instance_bounds[use];
+      *instance = MeshInstance<double>{instance_mesh[use], instance_transform[use]};
+    } else {
+      box = geometry_bounds(p, open, close);
+    }
+    scene_box.grow(box);
+    if (float_bounds)
+      bounds_in_float.push_back(outward_float_box(box));
+    else
+      bounds_in_double.push_back(box);
+    converted.push_back(fit_primitive(fit, scene, p, origins.front(), open, close));
+    primitives.pop_front();
+    origins.pop_front();
+    if (i % (1u << 18) == (1u << 18) - 1) release_free_memory();  // the deque's freed blocks, back to the system
+  }
   for (std::size_t i = 0; i < boundaries.size(); ++i)
-    flat.boundaries.push_back(fit_primitive(fit, scene, boundaries[i], boundary_origins[i], open, close));
-  // The double primitives are converted: freed before the BVH's build, the largest allocation that follows.
-  std::vector<Primitive<double>>().swap(primitives);
-  std::vector<PrimitiveOrigin>().swap(origins);
+    flat.boundaries.push_back(fit_primitive(fit, scene, boundaries[i], gathered.boundary_origins[i], open, close));
   if (released) released->objects = ObjectList{};  // read by the origins' messages until here
-  for (std::size_t k = 0; k < attributes.size(); ++k) {
-    const TriangleAttributes<double>& a = attributes[k];
+  release_free_memory();
+  for (std::size_t k = 0; k < gathered.triangle_attributes.size(); ++k) {
+    const TriangleAttributes<double>& a = gathered.triangle_attributes[k];
+    const std::string& object = gathered.attribute_objects[k];
     TriangleAttributes<T> out{};
     for (int i = 0; i < 3; ++i) {
-      const std::string uv = attribute_objects[k] + "/uvs/" + std::to_string(i);
-      out.normal[i] = fit(a.normal[i], Quantity::kPlain, attribute_objects[k] + "/normals/" + std::to_string(i), "normalised");
+      const std::string uv = object + "/uvs/" + std::to_string(i);
+      out.normal[i] = fit(a.normal[i], Quantity::kPlain, object + "/normals/" + std::to_string(i), "normalised");
       out.u[i] = fit(a.u[i], Quantity::kPlain, uv + "/0");
       out.v[i] = fit(a.v[i], Quantity::kPlain, uv + "/1");
     }
@@ -713,14 +789,17 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   }
 
   const auto bvh_start = std::chrono::steady_clock::now();
-  BuiltBvh<double> bvh = build_bvh(bounds);
-  std::vector<Aabb>().swap(bounds);
+  std::vector<u32> order;
   try {
-    flat.bvh_depth = bvh.depth;
-    flat.nodes.reserve(bvh.nodes.size());
-    for (const BvhNode<double>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
-    flat.wide_nodes = build_wide_bvh<T, double>(bvh.nodes);
-    std::vector<BvhNode<double>>().swap(bvh.nodes);
+    // An empty scene's box is the empty tree's root (bvh_builder.cpp).
+    if (converted.empty()) scene_box = Aabb{Vec3d::splat(1), Vec3d::splat(-1)};
+    const BvhNode<T> root = padded_node<T>(BvhNode<double>{scene_box.lo, 0, scene_box.hi, 0});
+    flat.scene_lo = root.lo, flat.scene_hi = root.hi;
+    if (float_bounds)
+      build_scene_trees(flat, bounds_in_float, binary_tree, order);
+    else
+      build_scene_trees(flat, bounds_in_double, binary_tree, order);
+    release_free_memory();
     make_perlin_tables(flat);
     flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
     if (scene.camera_frames_model) {
@@ -739,7 +818,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
         fmt::format("{}: /objects: a bound of the BVH, {:g}, does not fit {} (|x| <= {:g}) after scaling lengths by {:g} (see docs/numerics.md)",
                     scene.source, e.value, number_format_name<T>(), static_cast<double>(largest<T>()), scale));
   }
-  place_in_order(converted, bvh.order);
+  place_in_order(converted, order);
   flat.primitives = std::move(converted);
   flat.texels = released ? std::move(released->texels) : scene.texels;
   flat.srgb_decode = srgb_decode_table();
@@ -761,12 +840,12 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
 
 template <class T>
 FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& settings, double scale) {
-  return flatten_description<T>(scene, nullptr, settings, scale);
+  return flatten_description<T>(scene, nullptr, settings, scale, true);
 }
 
 template <class T>
-FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale) {
-  return flatten_description<T>(scene, &scene, settings, scale);
+FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale, bool binary_tree) {
+  return flatten_description<T>(scene, &scene, settings, scale, binary_tree);
 }
 
 template <class T>
@@ -817,7 +896,7 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
 #define PT_INSTANTIATE_FLAT_SCENE(...)                                                                                                             \
   template struct FlatScene<__VA_ARGS__>;                                                                                                          \
   template FlatScene<__VA_ARGS__> flatten_scene<__VA_ARGS__>(const SceneDescription&, const RenderSettings&, double);                              \
-  template FlatScene<__VA_ARGS__> flatten_scene_releasing<__VA_ARGS__>(SceneDescription&, const RenderSettings&, double);                              \
+  template FlatScene<__VA_ARGS__> flatten_scene_releasing<__VA_ARGS__>(SceneDescription&, const RenderSettings&, double, bool);                              \
   template bool closest_hit_brute_force<__VA_ARGS__>(const FlatScene<__VA_ARGS__>&, const Ray<__VA_ARGS__>&, const IntersectContext<__VA_ARGS__>&, \
                                                      Hit<__VA_ARGS__>&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_FLAT_SCENE)

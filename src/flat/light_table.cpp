@@ -198,8 +198,8 @@ void build_light_table(FlatScene<T>& scene, bool with_background) {
   // The background, where it shines, as a light around a sphere that holds the scene (pbrt's measure of a distant
   // light's power: pi R^2 times its mean radiance over the sphere of directions, 4 pi).
   const double background = luminance(background_mean_radiance(scene));
-  if (with_background && background > 0 && !scene.nodes.empty()) {
-    const Vec3d lo = to_double(scene.nodes[0].lo), hi = to_double(scene.nodes[0].hi);
+  if (with_background && background > 0) {
+    const Vec3d lo = to_double(scene.scene_lo), hi = to_double(scene.scene_hi);
     const double radius = 0.5 * length(hi - lo);
     const double power = std::isfinite(radius) && radius > 0 ? 4 * kPi * kPi * radius * radius * background : background;
     scene.background_light = static_cast<u32>(scene.light_entries.size());

@@ -3,6 +3,7 @@
 #include "loading/json_outline.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <utility>
 
 #include <fmt/format.h>
@@ -19,8 +20,9 @@ using Json = nlohmann::json;
 
 class OutlineBuilder {
  public:
-  OutlineBuilder(std::string_view text, const std::string& source, const std::size_t* consumed, JsonOutline* outline)
-      : text_(text), source_(source), consumed_(consumed), outline_(outline) {}
+  OutlineBuilder(std::string_view text, const std::string& source, const std::size_t* consumed, JsonOutline* outline,
+                 const std::function<void(std::size_t)>& passed)
+      : text_(text), source_(source), consumed_(consumed), outline_(outline), passed_(passed) {}
 
   const std::string& error() const { return error_; }
 
@@ -122,6 +124,7 @@ class OutlineBuilder {
   }
 
   void add_entry(TextRange range) {
+    if (passed_) passed_(range.begin);
     const Frame& list = frames_.back();
     if (list.entries == Entries::kObjectList)
       outline_->objects->push_back(range);
@@ -203,6 +206,7 @@ class OutlineBuilder {
   const std::string& source_;
   const std::size_t* consumed_;
   JsonOutline* outline_;
+  const std::function<void(std::size_t)>& passed_;
   std::vector<Frame> frames_;
   std::vector<Json*> containers_;  // the open arrays and objects of the document, innermost last
   bool in_entry_ = false;          // inside a list entry (nothing is built)
@@ -215,10 +219,10 @@ class OutlineBuilder {
 
 }  // namespace
 
-JsonOutline read_json_outline(std::string_view text, const std::string& source) {
+JsonOutline read_json_outline(std::string_view text, const std::string& source, const std::function<void(std::size_t)>& passed) {
   JsonOutline outline;
   std::size_t consumed = 0;
-  OutlineBuilder builder(text, source, &consumed, &outline);
+  OutlineBuilder builder(text, source, &consumed, &outline, passed);
   CountingIterator first(text.data(), &consumed), last(text.data() + text.size(), &consumed);
   if (!Json::sax_parse(first, last, &builder)) throw InputError(builder.error());
   return outline;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -32,7 +33,8 @@ struct JsonOutline {
 };
 
 // Throws InputError ("SOURCE:LINE:COLUMN: ...") for text that is not JSON, a number beyond a double's range,
-// nesting deeper than kMaxJsonNesting, or a part with more than kMaxJsonValuesPerEntry values.
-JsonOutline read_json_outline(std::string_view text, const std::string& source);
+// nesting deeper than kMaxJsonNesting, or a part with more than kMaxJsonValuesPerEntry values. `passed`, where
+// given, hears at each list entry that the text before it will be read again only for a message.
+JsonOutline read_json_outline(std::string_view text, const std::string& source, const std::function<void(std::size_t)>& passed = {});
 
 }  // namespace pt

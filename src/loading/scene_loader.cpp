@@ -4,18 +4,23 @@
 // a line and column are looked up only for an error.
 #include "loading/scene_loader.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <functional>
 #include <initializer_list>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "base/input_file.hpp"
+#include "base/mapped_file.hpp"
 #include "image/image_io.hpp"
 #include "loading/json_outline.hpp"
 #include "loading/model_files.hpp"
@@ -61,6 +66,7 @@ const char* type_name(const Json& j) {
 struct Document {
   std::string source;
   std::string_view text;
+  std::function<void(std::size_t)> passed;  // told where the reader is, for a mapped text (base/mapped_file.hpp)
 };
 
 // Where a node's value was parsed from: the whole text, or the text of one list entry, whose JSON path is the
@@ -246,8 +252,10 @@ class SceneReader {
     const std::vector<TextRange>& list = outline.objects.value();
     if (list.empty() || list.size() > (1u << 24)) objects.fail(fmt::format("expected between 1 and {} elements, found {}", 1u << 24, list.size()));
     scene_.objects.reserve(list.size());
-    for (std::size_t i = 0; i < list.size(); ++i)
+    for (std::size_t i = 0; i < list.size(); ++i) {
       with_entry(objects.pointer() + "/" + std::to_string(i), list[i], [&](const Node& n) { read_object(n); });
+      if (document_.passed) document_.passed(list[i].end);
+    }
     decode_images();
   }
 
@@ -791,15 +799,22 @@ u32 add_mesh_file(SceneDescription& scene, std::shared_ptr<const MeshFile> file,
 
 namespace {
 
-SceneDescription parse_scene_text(std::shared_ptr<const std::string> text, const std::string& source, const std::filesystem::path& base_folder,
-                                  ModelReferences references) {
-  const JsonOutline outline = read_json_outline(*text, source);
-  const Document document{source, *text};
+// `passed`, where given, hears how far the outline and the objects have been read (MappedFile::passed).
+SceneDescription parse_scene_view(std::string_view text, const std::string& source, const std::filesystem::path& base_folder,
+                                  ModelReferences references, const std::function<void(std::size_t)>& passed = {}) {
+  const JsonOutline outline = read_json_outline(text, source, passed);
+  const Document document{source, text, passed};
   SceneDescription scene;
   scene.source = source;
-  scene.written.text = text;
   SceneReader reader(document, base_folder, references, scene);
-  reader.read(Node(outline.root, "", document, ParsedFrom{TextRange{0, text->size()}, 0}), outline);
+  reader.read(Node(outline.root, "", document, ParsedFrom{TextRange{0, text.size()}, 0}), outline);
+  return scene;
+}
+
+SceneDescription parse_scene_text(std::shared_ptr<const std::string> text, const std::string& source, const std::filesystem::path& base_folder,
+                                  ModelReferences references) {
+  SceneDescription scene = parse_scene_view(*text, source, base_folder, references);
+  scene.written.text = std::move(text);
   return scene;
 }
 
@@ -810,6 +825,9 @@ SceneDescription parse_scene(std::string_view text, const std::string& source, c
 }
 
 namespace {
+
+// Scene files of at least this size are mapped rather than read into memory.
+constexpr off_t kMappedSceneSize = off_t{16} << 20;
 
 bool is_model_file(const std::filesystem::path& file) {
   std::string extension = file.extension().string();
@@ -868,10 +886,21 @@ SceneDescription load_scene_file(const std::filesystem::path& file, ModelReferen
     case InputFile::Problem::kNotRegular: throw InputError(fmt::format("{}: is {}, not a scene file", file.string(), input.reason()));
     case InputFile::Problem::kCannotOpen: throw InputError(fmt::format("{}: cannot open the scene file: {}", file.string(), input.reason()));
   }
-  std::string text;
-  if (!input.read_all(text)) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
-  SceneDescription scene = parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path(), references);
-  scene.written.text.reset();  // read again from the file for a message (source_position)
+  SceneDescription scene;
+  // A large scene is read through a mapping, its passed pages let go as the outline and the objects are read: the
+  // text of a 200 MB scene then costs the process little of its peak. Small ones, and files that cannot be mapped,
+  // are read whole.
+  struct stat status {};
+  const bool large = ::fstat(input.descriptor(), &status) == 0 && status.st_size >= kMappedSceneSize;
+  std::unique_ptr<MappedFile> mapped = large ? MappedFile::map(input.descriptor(), static_cast<std::size_t>(status.st_size), file.string()) : nullptr;
+  if (mapped) {
+    scene = parse_scene_view(mapped->text(), file.string(), file.parent_path(), references, [&](std::size_t offset) { mapped->passed(offset); });
+  } else {
+    std::string text;
+    if (!input.read_all(text)) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
+    scene = parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path(), references);
+    scene.written.text.reset();  // read again from the file for a message (source_position)
+  }
   scene.written.file = file;
   return scene;
 }

@@ -1,6 +1,7 @@
 // The parsed scene: what a scene file says, in double precision on the host, before it is flattened for kernels.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <deque>
@@ -12,6 +13,7 @@
 #include <string>
 #include <string_view>
 #include <tuple>
+#include <unordered_map>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -204,23 +206,56 @@ class ObjectList {
 // as the parser does, FILE:LINE:COLUMN: /json/path (source_position below). Object i is
 // always "/objects/i" and the camera "/camera"; textures and materials, written inline or under a name, are
 // listed here. Empty for scenes made in code.
-// JSON paths one after another in one buffer: a scene of a million inline materials keeps their characters and an
-// offset each, where a string each took 64 bytes or more.
+// A list of JSON paths, each 8 bytes: a path is a pattern (kept once) and the number of its first numeric part, so
+// that a scene of a million inline materials ("/objects/N/material", "/objects/N/material/albedo") keeps two
+// patterns and a number each, where the paths' characters took about 60 bytes a material.
 class JsonPathList {
  public:
   void push_back(std::string_view path) {
-    chars_ += path;
-    ends_.push_back(chars_.size());
+    // The first part that is a decimal index ("/12/": digits, no leading zero, below 2^32 - 1) becomes the number.
+    std::size_t at = 0, digits = 0;
+    u32 number = kNoNumber;
+    for (std::size_t begin = 0; begin < path.size(); ) {
+      const std::size_t end = std::min(path.find('/', begin + 1), path.size());
+      const std::string_view part = path.substr(begin + 1, end - begin - 1);
+      if (begin < path.size() && path[begin] == '/' && !part.empty() && part.size() <= 9 && (part.size() == 1 || part[0] != '0') &&
+          std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        number = 0;
+        for (const char c : part) number = number * 10 + static_cast<u32>(c - '0');
+        at = begin + 1;
+        digits = part.size();
+        break;
+      }
+      begin = end;
+    }
+    std::string text = number == kNoNumber ? std::string(path) : std::string(path.substr(0, at)) + std::string(path.substr(at + digits));
+    const u32 place = static_cast<u32>(number == kNoNumber ? text.size() : at);
+    // The number's place is part of the pattern: "/a/1/" and "/a//1" without their numbers are both "/a//".
+    auto [it, added] = pattern_index_.emplace(std::to_string(place) + ':' + text, static_cast<u32>(patterns_.size()));
+    if (added) patterns_.push_back(Pattern{std::move(text), place});
+    entries_.push_back(Entry{it->second, number});
   }
-  std::size_t size() const { return ends_.size(); }
+  std::size_t size() const { return entries_.size(); }
   std::string operator[](std::size_t i) const {
-    const std::size_t begin = i == 0 ? 0 : ends_[i - 1];
-    return chars_.substr(begin, ends_[i] - begin);
+    const Entry& e = entries_[i];
+    const Pattern& p = patterns_[e.pattern];
+    if (e.number == kNoNumber) return p.text;
+    return p.text.substr(0, p.at) + std::to_string(e.number) + p.text.substr(p.at);
   }
 
  private:
-  std::string chars_;
-  std::vector<std::size_t> ends_;
+  static constexpr u32 kNoNumber = ~0u;
+  struct Entry {
+    u32 pattern;
+    u32 number;
+  };
+  struct Pattern {
+    std::string text;  // the path without its number
+    u32 at;            // where the number goes
+  };
+  std::vector<Entry> entries_;
+  std::vector<Pattern> patterns_;
+  std::unordered_map<std::string, u32> pattern_index_;
 };
 
 struct SceneSourceMap {
