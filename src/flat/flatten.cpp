@@ -537,6 +537,7 @@ void make_primitives(const SceneDescription& scene, u32 index, Sink& sink) {
 // The first reading of the objects: the largest coordinate of any bounds (media through their boundaries, meshes
 // once built) and the meshes' placements, nothing kept per object.
 struct ExtentSink {
+  double open = 0, close = 0;  // the shutter's interval, over which moving spheres are bounded
   double largest = 0;
   std::vector<MeshPlacementUse> placements;
   u32 boundaries = 0;
@@ -552,7 +553,6 @@ struct ExtentSink {
   u32 boundary_count() const { return boundaries; }
   i32 attributes(const TriangleAttributes<double>&, u32) { return -1; }
   void instance(const MeshPlacementUse& use, u32, const PrimitiveOrigin&) { placements.push_back(use); }
-  double open = 0, close = 0;
 };
 
 // The second reading: every primitive kept, with where it was written. A double primitive takes 128 bytes: they are
@@ -743,7 +743,10 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   const bool float_bounds = float_box_fits(bounds_extent * scale);
   std::vector<FloatBox> bounds_in_float;
   std::vector<Aabb> bounds_in_double;
-  (float_bounds ? bounds_in_float.reserve(primitives.size()) : bounds_in_double.reserve(primitives.size()));
+  if (float_bounds)
+    bounds_in_float.reserve(primitives.size());
+  else
+    bounds_in_double.reserve(primitives.size());
   Aabb scene_box;  // the union in double, the root of the tree: the scene's box as the lights see it
   std::vector<Primitive<T>> converted;
   converted.reserve(primitives.size());
