@@ -700,13 +700,27 @@ TEST(BvhBuilder, FloatBoxesContainTheirDoubleBoxes) {
 // Flattening that lets go of the description as it goes (the render command's, for large scenes' memory) gives the
 // flat scene of the one that keeps it: the same image, bit for bit; the description keeps its source and loses its
 // objects, materials, textures and texels. Scenes with an image texture, a medium and many objects.
+// A shipped scene's settings for a small render: 24x16 pixels, 4 samples each.
+RenderSettings small_render(const SceneDescription& scene) {
+  RenderSettings settings = scene.render;
+  settings.width = 24;
+  settings.height = 16;
+  settings.samples_per_pixel = 4;
+  return settings;
+}
+
+// Both flat scenes render to the same image on the CPU, bit for bit.
+void expect_same_cpu_image(const FlatScene<float>& a, const FlatScene<float>& b, const char* name) {
+  auto renderer = make_backend<float>("cpu", 0, 0);
+  const LinearImage x = render_scene(*renderer, a).image, y = render_scene(*renderer, b).image;
+  ASSERT_EQ(x.rgb.size(), y.rgb.size()) << name;
+  EXPECT_EQ(std::memcmp(x.rgb.data(), y.rgb.data(), x.rgb.size() * sizeof(float)), 0) << name;
+}
+
 TEST(FlattenReleasing, GivesTheSameImageAndLetsTheDescriptionGo) {
   for (const char* name : {"tiny.json", "seed-default.json", "book2-final.json"}) {
     SceneDescription scene = load_scene_file(test::scene_path(name));
-    RenderSettings settings = scene.render;
-    settings.width = 24;
-    settings.height = 16;
-    settings.samples_per_pixel = 4;
+    const RenderSettings settings = small_render(scene);
     const FlatScene<float> kept = flatten_scene<float>(scene, settings);
     const std::size_t texels = scene.texels.size();
     const FlatScene<float> released = flatten_scene_releasing<float>(scene, settings);
@@ -714,10 +728,7 @@ TEST(FlattenReleasing, GivesTheSameImageAndLetsTheDescriptionGo) {
     EXPECT_EQ(released.texels.size(), texels) << name;
     EXPECT_NE(scene.source.find(name), std::string::npos) << name;
     EXPECT_EQ(kept.bytes(), released.bytes()) << name;
-    auto renderer = make_backend<float>("cpu", 0, 0);
-    const LinearImage a = render_scene(*renderer, kept).image, b = render_scene(*renderer, released).image;
-    ASSERT_EQ(a.rgb.size(), b.rgb.size());
-    EXPECT_EQ(std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)), 0) << name;
+    expect_same_cpu_image(kept, released, name);
   }
 }
 
@@ -726,10 +737,7 @@ TEST(FlattenReleasing, WithoutTheBinaryTreeTheCpuGivesTheSameImage) {
   // background's power) and the image must be those of the scene with both trees.
   for (const char* name : {"seed-default.json", "cornell-box.json", "meshes.json"}) {
     SceneDescription scene = load_scene_file(test::scene_path(name));
-    RenderSettings settings = scene.render;
-    settings.width = 24;
-    settings.height = 16;
-    settings.samples_per_pixel = 4;
+    const RenderSettings settings = small_render(scene);
     const FlatScene<float> both = flatten_scene<float>(scene, settings);
     const FlatScene<float> wide = flatten_scene_releasing<float>(scene, settings, 0, false);
     EXPECT_FALSE(both.nodes.empty()) << name;
@@ -742,10 +750,7 @@ TEST(FlattenReleasing, WithoutTheBinaryTreeTheCpuGivesTheSameImage) {
       EXPECT_EQ(wide.scene_lo[axis], both.scene_lo[axis]) << name;
       EXPECT_EQ(wide.scene_hi[axis], both.scene_hi[axis]) << name;
     }
-    auto renderer = make_backend<float>("cpu", 0, 0);
-    const LinearImage a = render_scene(*renderer, both).image, b = render_scene(*renderer, wide).image;
-    ASSERT_EQ(a.rgb.size(), b.rgb.size());
-    EXPECT_EQ(std::memcmp(a.rgb.data(), b.rgb.data(), a.rgb.size() * sizeof(float)), 0) << name;
+    expect_same_cpu_image(both, wide, name);
   }
 }
 

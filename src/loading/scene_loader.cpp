@@ -898,8 +898,7 @@ SceneDescription load_scene_file(const std::filesystem::path& file, ModelReferen
   } else {
     std::string text;
     if (!input.read_all(text)) throw InputError(fmt::format("{}: cannot read the scene file", file.string()));
-    scene = parse_scene_text(std::make_shared<const std::string>(std::move(text)), file.string(), file.parent_path(), references);
-    scene.written.text.reset();  // read again from the file for a message (source_position)
+    scene = parse_scene_view(text, file.string(), file.parent_path(), references);  // its text read again from the file for a message
   }
   scene.written.file = file;
   return scene;
