@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <exception>
 #include <functional>
 #include <initializer_list>
 #include <limits>
@@ -21,6 +22,7 @@
 
 #include "base/input_file.hpp"
 #include "base/mapped_file.hpp"
+#include "base/parallel_loop.hpp"
 #include "image/image_io.hpp"
 #include "loading/json_outline.hpp"
 #include "loading/model_files.hpp"
@@ -32,6 +34,10 @@ namespace pt {
 namespace {
 
 using Json = nlohmann::json;
+
+// Objects parsed a batch at a time, ahead of their reading (SceneReader::read): at most this many, or this much text.
+constexpr std::size_t kObjectBatch = 1024;
+constexpr std::size_t kObjectBatchBytes = std::size_t{1} << 20;
 
 std::size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
@@ -252,9 +258,44 @@ class SceneReader {
     const std::vector<TextRange>& list = outline.objects.value();
     if (list.empty() || list.size() > (1u << 24)) objects.fail(fmt::format("expected between 1 and {} elements, found {}", 1u << 24, list.size()));
     scene_.objects.reserve(list.size());
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      with_entry(objects.pointer() + "/" + std::to_string(i), list[i], [&](const Node& n) { read_object(n); });
-      if (document_.passed) document_.passed(list[i].end);
+    // nlohmann's parse of an entry costs about as much as reading it: each batch of objects is parsed on a second
+    // thread while the batch before it is read, in order, on this one. A batch ends after kObjectBatch objects or
+    // kObjectBatchBytes of text, so that the text parsed ahead of the reader (resident until the reader passes it,
+    // base/mapped_file.hpp) stays small however long the objects are written.
+    const auto batch_end = [&](std::size_t first) {
+      std::size_t end = first;
+      while (end < list.size() && end - first < kObjectBatch && (end == first || list[end].end - list[first].begin <= kObjectBatchBytes)) ++end;
+      return end;
+    };
+    std::vector<Json> parsed, ahead;
+    const auto parse_batch = [&](std::size_t first, std::vector<Json>& out) {
+      out.clear();
+      for (std::size_t i = first, end = batch_end(first); i < end; ++i) out.push_back(parse_entry(list[i]));
+    };
+    parse_batch(0, parsed);
+    for (std::size_t first = 0, end = batch_end(0); first < list.size(); first = end, end = batch_end(first)) {
+      std::exception_ptr read_failure, parse_failure;
+      parallel_invoke(
+          [&] {
+            try {
+              for (std::size_t i = first; i < end; ++i) {
+                read_entry(parsed[i - first], objects.pointer() + "/" + std::to_string(i), list[i], [&](const Node& n) { read_object(n); });
+                if (document_.passed) document_.passed(list[i].end);
+              }
+            } catch (...) {
+              read_failure = std::current_exception();
+            }
+          },
+          [&] {
+            try {
+              parse_batch(end, ahead);
+            } catch (...) {
+              parse_failure = std::current_exception();
+            }
+          });
+      if (read_failure) std::rethrow_exception(read_failure);  // the earlier object's problem comes first
+      if (parse_failure) std::rethrow_exception(parse_failure);
+      std::swap(parsed, ahead);
     }
     decode_images();
   }
@@ -263,7 +304,11 @@ class SceneReader {
   // Parses one list entry (the outline has checked its text) and reads it.
   template <class Read>
   void with_entry(std::string pointer, TextRange range, Read&& read) {
-    const Json value = Json::parse(document_.text.data() + range.begin, document_.text.data() + range.end);
+    read_entry(parse_entry(range), std::move(pointer), range, read);
+  }
+  Json parse_entry(TextRange range) const { return Json::parse(document_.text.data() + range.begin, document_.text.data() + range.end); }
+  template <class Read>
+  void read_entry(const Json& value, std::string pointer, TextRange range, Read&& read) {
     const std::size_t pointer_length = pointer.size();
     read(Node(value, std::move(pointer), document_, ParsedFrom{range, pointer_length}));
   }
