@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <type_traits>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -145,11 +146,18 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
     Hit<T> brute_hit{};
     const bool brute_found = closest_hit_brute_force(flat, rays[i], context, brute_hit);
     ++result.rays;
-    // Both layouts: the binary tree (walked on GPUs) and the wide one (walked on CPUs).
+    // Every layout: the binary tree (walked on GPUs in double), the wide one (walked on CPUs) and, in float, the
+    // compressed wide one (walked by CUDA).
     bool same = true;
-    for (const bool wide : {false, true}) {
+    const char* layouts[] = {"binary", "wide", "compressed"};
+    const int layout_count = std::is_same_v<T, float> ? 3 : 2;
+    for (int layout = 0; layout < layout_count; ++layout) {
       Hit<T> bvh_hit{};
-      const bool bvh_found = wide ? closest_hit_wide(view, rays[i], context, bvh_hit) : closest_hit_binary(view, rays[i], context, bvh_hit);
+      bool bvh_found = false;
+      if (layout == 0) bvh_found = closest_hit_binary(view, rays[i], context, bvh_hit);
+      if (layout == 1) bvh_found = closest_hit_wide(view, rays[i], context, bvh_hit);
+      if constexpr (std::is_same_v<T, float>)
+        if (layout == 2) bvh_found = closest_hit_compressed(view, rays[i], context, bvh_hit);
       if (bvh_found == brute_found &&
           (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t && bvh_hit.b1 == brute_hit.b1 &&
                           bvh_hit.b2 == brute_hit.b2 && bvh_hit.triangle == brute_hit.triangle)))
@@ -157,7 +165,7 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
       same = false;
       if (result.mismatches++ == 0)
         result.first_mismatch =
-            "ray " + std::to_string(i) + (wide ? ": wide bvh " : ": binary bvh ") +
+            "ray " + std::to_string(i) + ": " + layouts[layout] + " bvh " +
             (bvh_found ? std::to_string(bvh_hit.primitive) + " t=" + std::to_string(static_cast<double>(bvh_hit.t)) : "miss") + ", brute force " +
             (brute_found ? std::to_string(brute_hit.primitive) + " t=" + std::to_string(static_cast<double>(brute_hit.t)) : "miss");
     }

@@ -16,6 +16,7 @@
 
 #include "backends/registry.hpp"
 #include "film/layers.hpp"
+#include "kernel/fixed_point.hpp"
 #include "test_support.hpp"
 #if PT_HAVE_CUDA
 #include "backends/cuda/cuda_backend.hpp"

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <type_traits>
 
 #include "kernel/shapes.hpp"
 
@@ -10,6 +11,11 @@ namespace pt {
 
 template <class T>
 struct SceneView;  // kernel/scene_view.hpp: the traversal reads its BVH and primitives
+
+// The compressed wide tree CUDA walks in float (kernel/compressed_bvh.hpp, which kernel/scene_view.hpp includes).
+struct CompressedWideNode;
+template <class Leaf>
+PT_HD inline bool walk_compressed(const CompressedWideNode* nodes, u32 root, const Ray<float>& ray, float& closest, Leaf& leaf);
 
 // A node of the flattened BVH. Interior nodes (count == 0) have their first child right after them and the second
 // at `left_first`; leaves hold primitives [left_first, left_first + count).
@@ -366,20 +372,32 @@ PT_HD inline bool walk_wide(const WideBvhNode<T>* nodes, u32 root, const WideRay
   return found;
 }
 
-// GPU threads are the SIMD lanes already, and a wide node would lengthen each thread's serial work, so GPUs walk the
-// binary tree; host CPUs the wide one, testing a node's boxes at once. Under AdaptiveCpp's single-pass compiler one
-// source serves both: the choice is a branch that its run-time compiler folds for the target at hand.
+// GPU threads are the SIMD lanes already, and testing a node's eight boxes lengthens each thread's serial work, so
+// GPUs walk a tree whose wide nodes are small: CUDA the compressed wide tree in float (its child boxes in bytes,
+// kernel/compressed_bvh.hpp), the binary tree in double; host CPUs the wide one, testing a node's boxes at once.
+// Under AdaptiveCpp's single-pass compiler one source serves both: the choice is a branch that its run-time compiler
+// folds for the target at hand. The compressed and the wide tree share their node indices (`wide_root`).
 template <class T, class Leaf>
-PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_nodes, u32 root, u32 wide_root, const Ray<T>& ray, T& closest,
-                            Leaf& leaf) {
+PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_nodes, const CompressedWideNode* compressed_nodes, u32 root,
+                            u32 wide_root, const Ray<T>& ray, T& closest, Leaf& leaf) {
 #if defined(__CUDA_ARCH__)
-  return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
+  (void)wide_nodes;
+  if constexpr (std::is_same_v<T, float>) {
+    (void)nodes;
+    (void)root;
+    return walk_compressed(compressed_nodes, wide_root, ray, closest, leaf);
+  } else {
+    (void)compressed_nodes;
+    return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
+  }
 #elif defined(PT_ACPP_SINGLE_PASS)
+  (void)compressed_nodes;
   __acpp_if_target_device(return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);) return walk_wide(wide_nodes, wide_root,
                                                                                                                make_wide_ray(ray), closest, leaf);
 #else
   (void)nodes;
   (void)root;
+  (void)compressed_nodes;
   return walk_wide(wide_nodes, wide_root, make_wide_ray(ray), closest, leaf);
 #endif
 }
@@ -438,7 +456,7 @@ PT_HD inline bool intersect_instance(const MeshData<T>& meshes, const MeshInstan
   const Ray<T> local = instance_ray(meshes, instance, ray);
   const MeshRecord& mesh = meshes.meshes[instance.mesh];
   MeshLeaf<T> leaf{meshes, mesh.first_vertex, local, hit, blocked_before};
-  return walk_tree(meshes.nodes, meshes.wide_nodes, mesh.root, mesh.wide_root, local, closest, leaf);
+  return walk_tree(meshes.nodes, meshes.wide_nodes, meshes.compressed_nodes, mesh.root, mesh.wide_root, local, closest, leaf);
 }
 
 // The primitives of a leaf of the scene's tree. A hit that blocks a shadow ray (IntersectContext::blocked_before)
@@ -501,11 +519,23 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
   return walk_wide(scene.wide_nodes, 0u, make_wide_ray(ray), closest, leaf);
 }
 
+// Closest hit along the ray (beyond zero) over the compressed wide tree (float only).
+template <class T>
+PT_HD inline bool closest_hit_compressed(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
+                                         T t_max = largest<T>()) {
+  T closest = t_max;
+  SceneLeaf<T> leaf{scene, ray, context, hit};
+  return walk_compressed(scene.compressed_nodes, 0u, ray, closest, leaf);
+}
+
 // Closest hit along the ray (beyond zero, before t_max), over the tree the device walks best (walk_tree).
 template <class T>
 PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, T t_max = largest<T>()) {
 #if defined(__CUDA_ARCH__)
-  return closest_hit_binary(scene, ray, context, hit, t_max);
+  if constexpr (std::is_same_v<T, float>)
+    return closest_hit_compressed(scene, ray, context, hit, t_max);
+  else
+    return closest_hit_binary(scene, ray, context, hit, t_max);
 #elif defined(PT_ACPP_SINGLE_PASS)
   __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit, t_max);) return closest_hit_wide(scene, ray, context, hit, t_max);
 #else

@@ -4,6 +4,7 @@
 
 #include "kernel/background.hpp"
 #include "kernel/bvh.hpp"
+#include "kernel/compressed_bvh.hpp"
 #include "kernel/camera.hpp"
 
 namespace pt {
@@ -58,6 +59,7 @@ template <class T>
 struct SceneView {
   const BvhNode<T>* nodes;
   const WideBvhNode<T>* wide_nodes;
+  const CompressedWideNode* compressed_nodes;  // the wide nodes compressed, for float on GPUs (kernel/compressed_bvh.hpp)
   const Primitive<T>* primitives;
   const Primitive<T>* boundaries;
   const TriangleAttributes<T>* triangle_attributes;

@@ -108,6 +108,7 @@ template <class T>
 struct BvhNode;
 template <class T>
 struct WideBvhNode;
+struct CompressedWideNode;  // kernel/compressed_bvh.hpp
 
 // Vertex indices within its mesh, and its material.
 struct MeshTriangle {
@@ -180,6 +181,7 @@ struct MeshData {
   const InstanceTransform<T>* transforms;
   const BvhNode<T>* nodes;
   const WideBvhNode<T>* wide_nodes;
+  const CompressedWideNode* compressed_nodes;  // the wide nodes compressed, at the same indices (kernel/compressed_bvh.hpp)
   const MeshTangent<T>* tangents;
 };
 
