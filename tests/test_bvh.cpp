@@ -538,6 +538,41 @@ double greedy_folding_cost(const FlatScene<T>& flat, u32 index, std::size_t& nod
 
 // Folding by dynamic programming finds the cheapest wide tree the binary tree allows, so it costs no more than the
 // greedy folding; and where the greedy folding leaves nodes at the bottom with two children, it fills them.
+// Walking a mesh instance is a tree walk of its own: two in one leaf would be walked in the order they are stored,
+// not the nearer first, so each instance keeps a leaf of its own in the binary and the wide tree (40 overlapping
+// instances in a row, beside concentric spheres, which still share leaves).
+TYPED_TEST(BvhStructure, EveryMeshInstanceHasALeafOfItsOwn) {
+  using T = TypeParam;
+  TestRandom rng(5);
+  SceneDescription scene = empty_scene();
+  const u32 file = add_mesh_file(scene, test::triangle_soup(rng, 200), "/objects");
+  for (int i = 0; i < 40; ++i) test::place_mesh(scene, file, {0.5, 0.5, 0.5}, {3.0 * i, 7.0 * i, 0}, {0.6 * i, 0.1 * (i % 3), 0});
+  for (int i = 0; i < 50; ++i) {  // four spheres a centre: no split separates them, so they share a leaf
+    const Vec3d centre = rng.vec3(-10, 10);
+    for (int k = 1; k <= 4; ++k) scene.objects.push_back(object(Sphere<double>{centre, 0.1 * k}));
+  }
+  RenderSettings settings;
+  const FlatScene<T> flat = flatten_scene<T>(scene, settings);
+  auto is_instance = [&](u32 p) { return std::holds_alternative<MeshInstance<T>>(flat.primitives[p].shape); };
+  int instances = 0, shared_sphere_leaves = 0;
+  for (const BvhNode<T>& n : flat.nodes)
+    for (u32 p = n.left_first; n.count > 0 && p < n.left_first + n.count; ++p)
+      if (is_instance(p)) EXPECT_EQ(n.count, 1u) << "a binary leaf holds instance " << p << " and more";
+  for (const WideBvhNode<T>& n : flat.wide_nodes)
+    for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
+      if (!(n.leaf_mask >> lane & 1u)) continue;
+      for (u32 p = n.child[lane]; p < n.child[lane] + n.count[lane]; ++p) {
+        if (is_instance(p)) {
+          ++instances;
+          EXPECT_EQ(n.count[lane], 1u) << "a wide leaf holds instance " << p << " and more";
+        }
+      }
+      if (n.count[lane] > 1) ++shared_sphere_leaves;
+    }
+  EXPECT_EQ(instances, 40);
+  EXPECT_GT(shared_sphere_leaves, 10);
+}
+
 TYPED_TEST(BvhStructure, FoldedWideTreeCostsNoMoreThanGreedyFoldingWithFewerNodes) {
   using T = TypeParam;
   for (u64 seed : {12345u, 777u}) {

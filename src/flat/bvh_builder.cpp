@@ -22,7 +22,7 @@ class Builder {
  public:
   using Node = BvhNode<S>;
 
-  explicit Builder(const std::vector<Box<S>>& bounds) : bounds_(bounds) {
+  Builder(const std::vector<Box<S>>& bounds, const std::vector<bool>& alone) : bounds_(bounds), alone_(alone) {
     result_.order.resize(bounds.size());
     for (u32 i = 0; i < bounds.size(); ++i) result_.order[i] = i;
   }
@@ -40,6 +40,15 @@ class Builder {
   static constexpr u32 kParallelSubtree = 16384;
   // After merging the second half of a subtree this large, its freed list is given back to the system at once.
   static constexpr u32 kReleaseSubtree = 1u << 18;
+
+  // Whether order[first, first + count) may be one leaf: at most kMaxLeafSize primitives, none of them to be alone.
+  bool may_be_leaf(u32 first, u32 count) const {
+    if (count > kMaxLeafSize) return false;
+    if (count == 1 || alone_.empty()) return true;
+    for (u32 i = first; i < first + count; ++i)
+      if (alone_[result_.order[i]]) return false;
+    return true;
+  }
 
   static void make_leaf(std::vector<Node>& nodes, u32 index, u32 first, u32 count) {
     nodes[index].left_first = first;
@@ -108,13 +117,13 @@ class Builder {
     u32 middle;
     if (best_axis < 0) {
       // All centroids coincide: no split separates them, so halve the list unless it is small.
-      if (count <= kMaxLeafSize) {
+      if (may_be_leaf(first, count)) {
         make_leaf(nodes, index, first, count);
         return depth;
       }
       middle = first + count / 2;
     } else {
-      if (count <= kMaxLeafSize && leaf_cost <= split_cost) {
+      if (may_be_leaf(first, count) && leaf_cost <= split_cost) {
         make_leaf(nodes, index, first, count);
         return depth;
       }
@@ -152,22 +161,23 @@ class Builder {
   }
 
   const std::vector<Box<S>>& bounds_;  // read by all threads
+  const std::vector<bool>& alone_;     // likewise
   BuiltBvh<S> result_;
 };
 
 }  // namespace
 
 template <class S>
-BuiltBvh<S> build_bvh(const std::vector<Box<S>>& bounds) {
+BuiltBvh<S> build_bvh(const std::vector<Box<S>>& bounds, const std::vector<bool>& alone) {
   if (bounds.empty()) {
     BuiltBvh<S> empty;
     empty.nodes.push_back(BvhNode<S>{Vec3<S>::splat(1), 0, Vec3<S>::splat(-1), 0});
     return empty;
   }
-  return Builder<S>(bounds).build();
+  return Builder<S>(bounds, alone).build();
 }
 
-template BuiltBvh<double> build_bvh<double>(const std::vector<Box<double>>&);
-template BuiltBvh<float> build_bvh<float>(const std::vector<Box<float>>&);
+template BuiltBvh<double> build_bvh<double>(const std::vector<Box<double>>&, const std::vector<bool>&);
+template BuiltBvh<float> build_bvh<float>(const std::vector<Box<float>>&, const std::vector<bool>&);
 
 }  // namespace pt

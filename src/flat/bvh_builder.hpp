@@ -61,10 +61,11 @@ struct BuiltBvh {
 };
 
 // Builds over the given primitive bounds. Leaves hold at most kMaxLeafSize primitives, except where the depth
-// limit (kBvhMaxDepth) or identical centroids force a larger leaf. Node boxes are unions of the given boxes (exact
-// in S). S: double or float.
+// limit (kBvhMaxDepth) or identical centroids force a larger leaf; a primitive marked in `alone` (empty: none) gets
+// a leaf of its own, but where the depth limit forces one. Node boxes are unions of the given boxes (exact in S).
+// S: double or float.
 template <class S>
-BuiltBvh<S> build_bvh(const std::vector<Box<S>>& bounds);
+BuiltBvh<S> build_bvh(const std::vector<Box<S>>& bounds, const std::vector<bool>& alone = {});
 
 inline constexpr u32 kMaxLeafSize = 4;
 

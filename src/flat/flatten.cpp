@@ -599,15 +599,23 @@ double scene_extent(double bounds_extent, const Camera<double>& camera) {
 
 // The tree over the converted primitives' bounds, in float where the scene's coordinates allow (half the memory of
 // double, as for meshes), its boxes padded for T (padded_node); the binary nodes kept only where asked for.
-// The bounds are let go once the binary tree is built, before the wide one is folded from it.
+// The bounds are let go once the binary tree is built, before the wide one is folded from it. Mesh instances (marked
+// in `instances`, empty where there are none) each keep a leaf of their own: walking one is a tree walk, and two in
+// one leaf would be walked in the order they are stored, not the nearer first.
 template <class T, class S>
-void build_scene_trees(FlatScene<T>& flat, std::vector<Box<S>>& bounds, bool binary_tree, std::vector<u32>& order) {
-  BuiltBvh<S> bvh = build_bvh(bounds);
+void build_scene_trees(FlatScene<T>& flat, std::vector<Box<S>>& bounds, const std::vector<bool>& instances, bool binary_tree,
+                       std::vector<u32>& order) {
+  BuiltBvh<S> bvh = build_bvh(bounds, instances);
   std::vector<Box<S>>().swap(bounds);
   release_free_memory();
   order = std::move(bvh.order);
   flat.bvh_depth = bvh.depth;
-  flat.wide_nodes = build_wide_bvh<T, S>(bvh.nodes);
+  std::vector<bool> instance_at;  // by position in the tree's order
+  if (!instances.empty()) {
+    instance_at.resize(order.size());
+    for (std::size_t i = 0; i < order.size(); ++i) instance_at[i] = instances[order[i]];
+  }
+  flat.wide_nodes = build_wide_bvh<T, S>(bvh.nodes, 1, instance_at);
   if (binary_tree) {
     flat.nodes.reserve(bvh.nodes.size());
     for (const BvhNode<S>& n : bvh.nodes) flat.nodes.push_back(padded_node<T>(n));
@@ -749,6 +757,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   else
     bounds_in_double.reserve(primitives.size());
   Aabb scene_box;  // the union in double, the root of the tree: the scene's box as the lights see it
+  std::vector<bool> instances;  // which primitives are mesh instances (empty where none is)
   std::vector<Primitive<T>> converted;
   converted.reserve(primitives.size());
   for (std::size_t i = 0; !primitives.empty(); ++i) {
@@ -760,6 +769,8 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
       const u32 use = instance->mesh;  // the placement's index until here; now its mesh and transform
       box = instance_bounds[use];
       *instance = MeshInstance<double>{instance_mesh[use], instance_transform[use]};
+      if (instances.empty()) instances.resize(primitives.size() + i);
+      instances[i] = true;
     } else {
       box = geometry_bounds(p, open, close);
     }
@@ -800,9 +811,9 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
     const BvhNode<T> root = padded_node<T>(BvhNode<double>{scene_box.lo, 0, scene_box.hi, 0});
     flat.scene_lo = root.lo, flat.scene_hi = root.hi;
     if (float_bounds)
-      build_scene_trees(flat, bounds_in_float, binary_tree, order);
+      build_scene_trees(flat, bounds_in_float, instances, binary_tree, order);
     else
-      build_scene_trees(flat, bounds_in_double, binary_tree, order);
+      build_scene_trees(flat, bounds_in_double, instances, binary_tree, order);
     release_free_memory();
     make_perlin_tables(flat);
     flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);

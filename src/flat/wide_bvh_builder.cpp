@@ -22,7 +22,8 @@ namespace {
 template <class T, class S>
 class WideBvhBuilder {
  public:
-  explicit WideBvhBuilder(const std::vector<BvhNode<S>>& binary, double scale = 1) : binary_(binary), scale_(scale) {}
+  WideBvhBuilder(const std::vector<BvhNode<S>>& binary, double scale, const std::vector<bool>& alone_at)
+      : binary_(binary), scale_(scale), alone_at_(alone_at) {}
 
   std::vector<WideBvhNode<T>> build() {
     const BvhNode<S>& root = binary_[0];
@@ -56,6 +57,7 @@ class WideBvhBuilder {
   struct Planned {
     u32 node = 0, size = 0;
     std::array<double, kWideBvhWidth + 1> cost{};
+    bool alone = false;  // it holds a primitive that keeps a leaf of its own: it cannot become one leaf unless it is one
   };
 
   u32 add_node() {
@@ -112,6 +114,7 @@ class WideBvhBuilder {
       Planned p{n, 0, {}};
       if (is_leaf(n)) {
         p.size = binary_[n].count;
+        for (u32 i = 0; i < p.size && !alone_at_.empty(); ++i) p.alone = p.alone || alone_at_[binary_[n].left_first + i];
         for (u32 slots = 1; slots <= kWideBvhWidth; ++slots) p.cost[slots] = a * p.size * kWidePrimitiveCost;
         waiting.push_back(p);
         continue;
@@ -123,10 +126,11 @@ class WideBvhBuilder {
       const Planned r = waiting.back();
       waiting.pop_back();
       p.size = l.size + r.size;
+      p.alone = l.alone || r.alone;
       const auto [node_cost, node_left_slots] = shared(l, r, kWideBvhWidth);
       p.cost[1] = a * kWideNodeCost + node_cost;
       Form one = Form::kNode;
-      if (p.size <= kMaxLeafSize && a * p.size * kWidePrimitiveCost <= p.cost[1]) {
+      if (p.size <= kMaxLeafSize && !p.alone && a * p.size * kWidePrimitiveCost <= p.cost[1]) {
         p.cost[1] = a * p.size * kWidePrimitiveCost;
         one = Form::kLeaf;
       }
@@ -199,6 +203,7 @@ class WideBvhBuilder {
 
   const std::vector<BvhNode<S>>& binary_;
   double scale_;
+  const std::vector<bool>& alone_at_;
   std::vector<Choices> choices_;
   std::vector<WideBvhNode<T>> wide_;
 };
@@ -206,13 +211,15 @@ class WideBvhBuilder {
 }  // namespace
 
 template <class T, class S>
-std::vector<WideBvhNode<T>> build_wide_bvh(const std::vector<BvhNode<S>>& binary, double scale) {
-  return WideBvhBuilder<T, S>(binary, scale).build();
+std::vector<WideBvhNode<T>> build_wide_bvh(const std::vector<BvhNode<S>>& binary, double scale, const std::vector<bool>& alone_at) {
+  return WideBvhBuilder<T, S>(binary, scale, alone_at).build();
 }
 
 #define PT_INSTANTIATE_WIDE_BVH(...)                                                                                             \
-  template std::vector<WideBvhNode<__VA_ARGS__>> build_wide_bvh<__VA_ARGS__, float>(const std::vector<BvhNode<float>>&, double); \
-  template std::vector<WideBvhNode<__VA_ARGS__>> build_wide_bvh<__VA_ARGS__, double>(const std::vector<BvhNode<double>>&, double);
+  template std::vector<WideBvhNode<__VA_ARGS__>> build_wide_bvh<__VA_ARGS__, float>(const std::vector<BvhNode<float>>&, double,    \
+                                                                                   const std::vector<bool>&);                       \
+  template std::vector<WideBvhNode<__VA_ARGS__>> build_wide_bvh<__VA_ARGS__, double>(const std::vector<BvhNode<double>>&, double,  \
+                                                                                    const std::vector<bool>&);
 PT_FOR_EACH_SCALAR_TYPE(PT_INSTANTIATE_WIDE_BVH)
 
 }  // namespace pt

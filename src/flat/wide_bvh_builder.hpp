@@ -34,8 +34,9 @@ BvhNode<T> padded_node(const BvhNode<S>& node, double scale = 1) {
 }
 
 // The wide tree of a binary one built in S (float or double) for kernels of scalar type T, its boxes multiplied by
-// `scale` (a power of two) as they are read: see wide_bvh_builder.cpp.
+// `scale` (a power of two) as they are read: see wide_bvh_builder.cpp. `alone_at` (empty: none), indexed as the
+// leaves index primitives, marks the primitives that keep a leaf of their own (build_bvh's `alone`).
 template <class T, class S>
-std::vector<WideBvhNode<T>> build_wide_bvh(const std::vector<BvhNode<S>>& binary, double scale = 1);
+std::vector<WideBvhNode<T>> build_wide_bvh(const std::vector<BvhNode<S>>& binary, double scale = 1, const std::vector<bool>& alone_at = {});
 
 }  // namespace pt
