@@ -11,6 +11,7 @@
 #include "backends/registry.hpp"
 #include "film/film.hpp"
 #include "flat/bvh_builder.hpp"
+#include "flat/compressed_bvh_builder.hpp"
 #include "kernel/fixed_point.hpp"
 #include "loading/scene_loader.hpp"
 #include "scene/mesh.hpp"
@@ -140,6 +141,15 @@ template <class T>
 Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vector<Ray<T>>& rays) {
   Comparison<T> result;
   const SceneView<T> view = flat.view();
+  // The same view with the compressed trees, which the host then walks for the scene and for meshes alike.
+  SceneView<T> compressed_view = view;
+  std::vector<CompressedWideNode> compressed, mesh_compressed;
+  if constexpr (std::is_same_v<T, float>) {
+    compressed = compress_wide_bvh(flat.wide_nodes);
+    mesh_compressed = compress_wide_bvh(flat.mesh_wide_nodes);
+    compressed_view.compressed_nodes = compressed.data();
+    compressed_view.meshes.compressed_nodes = mesh_compressed.data();
+  }
   for (std::size_t i = 0; i < rays.size(); ++i) {
     const SampleRandom random = SampleRandom::make(7, static_cast<u32>(i), 0);
     const IntersectContext<T> context{view.boundaries, &random, 0};
@@ -157,7 +167,7 @@ Comparison<T> compare_with_brute_force(const FlatScene<T>& flat, const std::vect
       if (layout == 0) bvh_found = closest_hit_binary(view, rays[i], context, bvh_hit);
       if (layout == 1) bvh_found = closest_hit_wide(view, rays[i], context, bvh_hit);
       if constexpr (std::is_same_v<T, float>)
-        if (layout == 2) bvh_found = closest_hit_compressed(view, rays[i], context, bvh_hit);
+        if (layout == 2) bvh_found = closest_hit_compressed(compressed_view, rays[i], context, bvh_hit);
       if (bvh_found == brute_found &&
           (!bvh_found || (bvh_hit.primitive == brute_hit.primitive && bvh_hit.t == brute_hit.t && bvh_hit.b1 == brute_hit.b1 &&
                           bvh_hit.b2 == brute_hit.b2 && bvh_hit.triangle == brute_hit.triangle)))

@@ -6,10 +6,14 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "backends/backend.hpp"
+#if defined(PT_CUDA_COMPRESSED_BVH)
+#include "flat/compressed_bvh_builder.hpp"
+#endif
 #include "integrators/device.hpp"
 #include "integrators/megakernel.hpp"
 #include "integrators/wavefront.hpp"
@@ -38,6 +42,17 @@ class DeviceBackend final : public RenderBackend<T> {
       view_ = scene.view();
     else
       view_ = place_scene(scene, [&](const auto& array, const char* what) { return memory_.upload(array, what); });
+#if defined(PT_CUDA_COMPRESSED_BVH)
+    // This CUDA build walks the compressed wide tree in float (kernel/bvh.hpp, walk_tree): made from the wide one here,
+    // held until the copies below are finished.
+    std::vector<CompressedWideNode> compressed, mesh_compressed;
+    if constexpr (std::is_same_v<T, float>) {
+      compressed = compress_wide_bvh(scene.wide_nodes);
+      mesh_compressed = compress_wide_bvh(scene.mesh_wide_nodes);
+      view_.compressed_nodes = memory_.upload(compressed, "copying the compressed BVH");
+      view_.meshes.compressed_nodes = memory_.upload(mesh_compressed, "copying the compressed mesh BVHs");
+    }
+#endif
     const std::size_t pixels = static_cast<std::size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(memory_.allocate(pixels * sizeof(FilmPixel), "allocating the film"));
     film_pixels_ = pixels;

@@ -14,8 +14,6 @@ template <class T>
 struct FlatScene {
   std::vector<BvhNode<T>> nodes;
   std::vector<WideBvhNode<T>> wide_nodes;  // the same tree, up to kWideBvhWidth children a node (walked on host CPUs: closest_hit)
-  // The wide tree compressed, at the same indices (walked by CUDA in float); made for float where the binary nodes are kept.
-  std::vector<CompressedWideNode> compressed_nodes;
   Vec3<T> scene_lo{}, scene_hi{};          // the root's box as the binary nodes[0] has it, also where those are not kept
   std::vector<Primitive<T>> primitives;
   std::vector<Primitive<T>> boundaries;
@@ -30,7 +28,6 @@ struct FlatScene {
   std::vector<InstanceTransform<T>> instance_transforms;
   std::vector<BvhNode<T>> mesh_nodes;
   std::vector<WideBvhNode<T>> mesh_wide_nodes;
-  std::vector<CompressedWideNode> mesh_compressed_nodes;
   std::vector<Material<T>> materials;
   std::vector<Texture<T>> textures;
   std::vector<u8> texels;          // sRGB bytes, three a texel
@@ -76,13 +73,12 @@ template <class T, class Place>
 SceneView<T> place_scene(const FlatScene<T>& scene, Place&& place) {
   return SceneView<T>{
       place(scene.nodes, "copying the BVH"), place(scene.wide_nodes, "copying the wide BVH"),
-      place(scene.compressed_nodes, "copying the compressed BVH"), place(scene.primitives, "copying the primitives"),
+      nullptr /* the compressed tree: made by a backend that walks it (DeviceBackend::upload) */, place(scene.primitives, "copying the primitives"),
       place(scene.boundaries, "copying the medium boundaries"), place(scene.triangle_attributes, "copying the triangle attributes"),
       MeshData<T>{place(scene.mesh_positions, "copying the mesh vertices"), place(scene.mesh_normals, "copying the mesh normals"),
                   place(scene.mesh_uvs, "copying the mesh texture coordinates"), place(scene.mesh_triangles, "copying the mesh triangles"),
                   place(scene.meshes, "copying the meshes"), place(scene.instance_transforms, "copying the instance transforms"),
-                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs"),
-                  place(scene.mesh_compressed_nodes, "copying the mesh BVHs"),
+                  place(scene.mesh_nodes, "copying the mesh BVHs"), place(scene.mesh_wide_nodes, "copying the mesh BVHs"), nullptr,
                   place(scene.mesh_tangents, "copying the mesh tangents")},
       place(scene.materials, "copying the materials"), place(scene.textures, "copying the textures"),
       // Every image texture's texels in one array; ImageTexture::offset says where each starts.
@@ -105,7 +101,6 @@ static_assert(std::is_trivially_copyable_v<Material<float>>);
 static_assert(std::is_trivially_copyable_v<Texture<float>>);
 static_assert(std::is_trivially_copyable_v<BvhNode<float>>);
 static_assert(std::is_trivially_copyable_v<WideBvhNode<float>>);
-static_assert(std::is_trivially_copyable_v<CompressedWideNode>);
 static_assert(std::is_trivially_copyable_v<SceneView<float>>);
 static_assert(std::is_trivially_copyable_v<InstanceTransform<float>>);
 static_assert(sizeof(MeshTriangle) == 16);
@@ -125,8 +120,7 @@ FlatScene<T> flatten_scene(const SceneDescription& scene, const RenderSettings& 
 // The same, letting go of the scene's objects, materials, textures and image texels as soon as they are converted
 // (a large scene's description would otherwise be held beside its flat copy through the BVH's build): `scene` keeps
 // its source, settings, camera, background, meshes and warnings.
-// `binary_tree`: whether the trees GPUs walk (the binary nodes, and for float the compressed wide nodes) are made
-// beside the wide ones (walked by host CPUs).
+// `binary_tree`: whether the binary nodes (walked by GPUs) are kept beside the wide ones (walked by host CPUs).
 template <class T>
 FlatScene<T> flatten_scene_releasing(SceneDescription& scene, const RenderSettings& settings, double scale = 0, bool binary_tree = true);
 

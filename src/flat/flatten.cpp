@@ -22,7 +22,6 @@
 #include "base/number_formats.hpp"
 #include "base/scalar_types.hpp"
 #include "flat/bvh_builder.hpp"
-#include "flat/compressed_bvh_builder.hpp"
 #include "flat/duplicates.hpp"
 #include "flat/environment.hpp"
 #include "flat/fit.hpp"
@@ -817,11 +816,6 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
     release_free_memory();
     make_perlin_tables(flat);
     flatten_meshes(fit, meshes, instance_maps, instance_objects, flat);
-    if constexpr (std::is_same_v<T, float>)
-      if (binary_tree) {
-        flat.compressed_nodes = compress_wide_bvh(flat.wide_nodes);
-        flat.mesh_compressed_nodes = compress_wide_bvh(flat.mesh_wide_nodes);
-      }
     if (scene.camera_frames_model) {
       try {
         flat.camera = fit_camera(fit, camera, settings.width, settings.height);

@@ -12,7 +12,7 @@ namespace pt {
 template <class T>
 struct SceneView;  // kernel/scene_view.hpp: the traversal reads its BVH and primitives
 
-// The compressed wide tree CUDA walks in float (kernel/compressed_bvh.hpp, which kernel/scene_view.hpp includes).
+// The compressed wide tree a CUDA build can walk in float (kernel/compressed_bvh.hpp, included by kernel/scene_view.hpp).
 struct CompressedWideNode;
 template <class Leaf>
 PT_HD inline bool walk_compressed(const CompressedWideNode* nodes, u32 root, const Ray<float>& ray, float& closest, Leaf& leaf);
@@ -372,32 +372,30 @@ PT_HD inline bool walk_wide(const WideBvhNode<T>* nodes, u32 root, const WideRay
   return found;
 }
 
-// GPU threads are the SIMD lanes already, and testing a node's eight boxes lengthens each thread's serial work, so
-// GPUs walk a tree whose wide nodes are small: CUDA the compressed wide tree in float (its child boxes in bytes,
-// kernel/compressed_bvh.hpp), the binary tree in double; host CPUs the wide one, testing a node's boxes at once.
-// Under AdaptiveCpp's single-pass compiler one source serves both: the choice is a branch that its run-time compiler
-// folds for the target at hand. The compressed and the wide tree share their node indices (`wide_root`).
+// GPU threads are the SIMD lanes already, and a wide node would lengthen each thread's serial work, so GPUs walk the
+// binary tree; host CPUs the wide one, testing a node's boxes at once. Under AdaptiveCpp's single-pass compiler one
+// source serves both: the choice is a branch that its run-time compiler folds for the target at hand. A CUDA build
+// with PT_CUDA_COMPRESSED_BVH walks the compressed wide tree in float instead (kernel/compressed_bvh.hpp; slower on
+// an H200 as it stands: BENCHMARKS.md, "A compressed wide BVH on the GPU"), which shares the wide tree's indices.
 template <class T, class Leaf>
 PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_nodes, const CompressedWideNode* compressed_nodes, u32 root,
                             u32 wide_root, const Ray<T>& ray, T& closest, Leaf& leaf) {
+  (void)compressed_nodes;
 #if defined(__CUDA_ARCH__)
   (void)wide_nodes;
-  if constexpr (std::is_same_v<T, float>) {
-    (void)nodes;
-    (void)root;
-    return walk_compressed(compressed_nodes, wide_root, ray, closest, leaf);
-  } else {
-    (void)compressed_nodes;
-    return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
-  }
+#if defined(PT_CUDA_COMPRESSED_BVH)
+  if constexpr (std::is_same_v<T, float>) return walk_compressed(compressed_nodes, wide_root, ray, closest, leaf);
+#endif
+  return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
 #elif defined(PT_ACPP_SINGLE_PASS)
-  (void)compressed_nodes;
   __acpp_if_target_device(return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);) return walk_wide(wide_nodes, wide_root,
                                                                                                                make_wide_ray(ray), closest, leaf);
 #else
   (void)nodes;
   (void)root;
-  (void)compressed_nodes;
+  // A view given the compressed trees on the host walks them (the tests check that tree against brute force so).
+  if constexpr (std::is_same_v<T, float>)
+    if (compressed_nodes != nullptr) return walk_compressed(compressed_nodes, wide_root, ray, closest, leaf);
   return walk_wide(wide_nodes, wide_root, make_wide_ray(ray), closest, leaf);
 #endif
 }
@@ -519,7 +517,7 @@ PT_HD inline bool closest_hit_wide(const SceneView<T>& scene, const Ray<T>& ray,
   return walk_wide(scene.wide_nodes, 0u, make_wide_ray(ray), closest, leaf);
 }
 
-// Closest hit along the ray (beyond zero) over the compressed wide tree (float only).
+// Closest hit along the ray (beyond zero) over the compressed wide tree (float only; SceneView::compressed_nodes set).
 template <class T>
 PT_HD inline bool closest_hit_compressed(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit,
                                          T t_max = largest<T>()) {
@@ -532,10 +530,10 @@ PT_HD inline bool closest_hit_compressed(const SceneView<T>& scene, const Ray<T>
 template <class T>
 PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, T t_max = largest<T>()) {
 #if defined(__CUDA_ARCH__)
-  if constexpr (std::is_same_v<T, float>)
-    return closest_hit_compressed(scene, ray, context, hit, t_max);
-  else
-    return closest_hit_binary(scene, ray, context, hit, t_max);
+#if defined(PT_CUDA_COMPRESSED_BVH)
+  if constexpr (std::is_same_v<T, float>) return closest_hit_compressed(scene, ray, context, hit, t_max);
+#endif
+  return closest_hit_binary(scene, ray, context, hit, t_max);
 #elif defined(PT_ACPP_SINGLE_PASS)
   __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit, t_max);) return closest_hit_wide(scene, ray, context, hit, t_max);
 #else

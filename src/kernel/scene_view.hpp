@@ -59,7 +59,7 @@ template <class T>
 struct SceneView {
   const BvhNode<T>* nodes;
   const WideBvhNode<T>* wide_nodes;
-  const CompressedWideNode* compressed_nodes;  // the wide nodes compressed, for float on GPUs (kernel/compressed_bvh.hpp)
+  const CompressedWideNode* compressed_nodes;  // the wide nodes compressed where a backend walks them, else null (kernel/bvh.hpp, walk_tree)
   const Primitive<T>* primitives;
   const Primitive<T>* boundaries;
   const TriangleAttributes<T>* triangle_attributes;

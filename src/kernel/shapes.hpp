@@ -181,7 +181,7 @@ struct MeshData {
   const InstanceTransform<T>* transforms;
   const BvhNode<T>* nodes;
   const WideBvhNode<T>* wide_nodes;
-  const CompressedWideNode* compressed_nodes;  // the wide nodes compressed, at the same indices (kernel/compressed_bvh.hpp)
+  const CompressedWideNode* compressed_nodes;  // the wide nodes compressed where a backend walks them, at the same indices; else null
   const MeshTangent<T>* tangents;
 };
 

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Runs on the GPU machine with out/device/ carried (tools/device/package.sh) and the build before the compressed wide
-# BVH as out/base/pathtracer: the GPU tests the tree must pass, compute-sanitizer on meshes, and the traversal's
-# figures of BENCHMARKS.md ("Compressed wide BVH on the GPU") side by side with the build before.
-# Usage: bash tools/device/compressed-bvh.sh [tests] [sanitize] [speed] [ROUNDS=1]
+# Runs on the GPU machine with out/device/ carried (tools/device/package.sh) and a second build to hold against it as
+# out/base/pathtracer (for the compressed wide BVH: the device preset configured with -DPT_CUDA_COMPRESSED_BVH=ON,
+# built and copied there): the GPU tests, compute-sanitizer on meshes, and the traversal figures of BENCHMARKS.md
+# ("A compressed wide BVH on the GPU"), out/base against out/device side by side.
+# Usage: bash tools/device/compressed-bvh.sh [tests] [sanitize] [speed]   (ROUNDS=N in the environment: rounds, 1)
 OUT="${OUT:-/tmp/pt-out}"; mkdir -p "$OUT"
 set -u
 parts="${*:-tests sanitize speed}"
@@ -25,7 +26,7 @@ if [[ " $parts " == *" sanitize "* ]]; then
 fi
 if [[ " $parts " == *" speed "* ]]; then
   for s in heightfield-1m bumpy-1m bumpy-instances; do for i in wavefront megakernel; do
-    $PT bench scenes/$s.json --backend cuda --integrator $i --width 1920 --height 1080 --spp 64 --runs 3 2>/dev/null | grep -oE 'scene .*rays/s'
+    $PT bench scenes/$s.json --backend cuda --integrator $i --width 1920 --height 1080 --spp 64 --runs 3 2>&1 | grep -oE 'scene .*rays/s|.*rror.*'
   done; done
   SCENES="heightfield-1m --width 1920 --height 1080 --spp 64|bumpy-1m --width 1920 --height 1080 --spp 64|bumpy-instances --width 1920 --height 1080 --spp 64|meshes --width 1280 --height 720 --spp 256|book1-final --width 1200 --height 800 --spp 100|cornell-smoke --width 1024 --height 1024 --spp 1000" \
     bash tools/device/side-by-side.sh out/base/pathtracer $PT "${ROUNDS:-1}"
