@@ -115,8 +115,8 @@ TEST(CompressedBvh, BoxTestEntersEveryBoxTheExactDistancesEnter) {
       if (near > far) continue;
       u32 leaves = 0, inner = 0;
       compressed_box_test(node.boxes, cray, 0.0f, 1e30f, leaves, inner);
-      EXPECT_TRUE((leaves | inner) >> visit_place(cray, slot) & 1u) << "node " << n << " ray " << r << ": slot " << slot << " not entered, exact entry "
-                                                                 << near << " exit " << far;
+      EXPECT_TRUE((leaves | inner) >> visit_place(cray, slot) & 1u)
+          << "node " << n << " ray " << r << ": slot " << slot << " not entered, exact entry " << near << " exit " << far;
       if (far - near < 1e-6 * far) ++grazing_entries;
     }
   }
@@ -169,7 +169,7 @@ TEST(CompressedBvh, TheWalkVisitsTheNearerHalfOfARowFirstFromEitherSide) {
     const Ray<float> ray{Vec3<float>{direction > 0 ? -5.0f : 25.0f, 0.5f, 0.5f}, Vec3<float>{direction, 0.01f, 0.02f}, 0};
     walk_compressed(compressed.data(), 0, ray, closest, leaf);
     ASSERT_EQ(visited.size(), 8u) << "direction " << direction;
-    for (int k = 0; k < 4; ++k) EXPECT_EQ(visited[k] < 4, direction > 0) << "direction " << direction << ", visit " << k;
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(visited[k]<4, direction> 0) << "direction " << direction << ", visit " << k;
   }
 }
 

@@ -59,7 +59,8 @@ std::array<int, kCompressedWidth> assign_slots(const std::vector<Child>& childre
   for (int a = 0; a < 3; ++a) {
     node_lo[a] = std::numeric_limits<double>::infinity();
     node_hi[a] = -std::numeric_limits<double>::infinity();
-    for (const Child& c : children) node_lo[a] = std::min(node_lo[a], static_cast<double>(c.lo[a])), node_hi[a] = std::max(node_hi[a], static_cast<double>(c.hi[a]));
+    for (const Child& c : children)
+      node_lo[a] = std::min(node_lo[a], static_cast<double>(c.lo[a])), node_hi[a] = std::max(node_hi[a], static_cast<double>(c.hi[a]));
     centre[a] = 0.5 * (node_lo[a] + node_hi[a]);
   }
   struct Pair {
@@ -155,8 +156,10 @@ class Compressor {
       const u32 word = slot / 4, shift = 8 * (slot % 4);
       for (int a = 0; a < 3; ++a) {
         const u32 lo_word = 2 * static_cast<u32>(a) + word, hi_word = 2 * (3 + static_cast<u32>(a)) + word;
-        boxes.planes[lo_word] = (boxes.planes[lo_word] & ~(0xffu << shift)) | static_cast<u32>(lower_byte(boxes.origin[a], exponent[a], c.lo[a])) << shift;
-        boxes.planes[hi_word] = (boxes.planes[hi_word] & ~(0xffu << shift)) | static_cast<u32>(upper_byte(boxes.origin[a], exponent[a], c.hi[a])) << shift;
+        boxes.planes[lo_word] = (boxes.planes[lo_word] & ~(0xffu << shift)) | static_cast<u32>(lower_byte(boxes.origin[a], exponent[a], c.lo[a]))
+                                                                                  << shift;
+        boxes.planes[hi_word] = (boxes.planes[hi_word] & ~(0xffu << shift)) | static_cast<u32>(upper_byte(boxes.origin[a], exponent[a], c.hi[a]))
+                                                                                  << shift;
       }
       node.child[slot] = c.index;
       node.count[slot] = static_cast<std::uint16_t>(c.count);

@@ -1,4 +1,5 @@
-// The compressed wide tree CUDA walks in float (kernel/compressed_bvh.hpp), made from the wide tree host CPUs walk.
+// The compressed wide tree a CUDA build with PT_CUDA_COMPRESSED_BVH walks in float (kernel/compressed_bvh.hpp), made
+// from the wide tree host CPUs walk.
 #pragma once
 
 #include <vector>

@@ -177,7 +177,7 @@ PT_HD inline bool walk_compressed(const CompressedWideNode* nodes, u32 root, con
   u32 stack_size = 0;
   u32 node_index = root;
   while (true) {
-    u32 leaves, inner;  // entered slots, bit k for the slot at place k of the order of visits
+    u32 leaves, inner;                                      // entered slots, bit k for the slot at place k of the order of visits
     const CompressedBoxes boxes = nodes[node_index].boxes;  // four 16-byte loads
     compressed_box_test(boxes, r, t_min, closest, leaves, inner);
     const CompressedWideNode& node = nodes[node_index];
