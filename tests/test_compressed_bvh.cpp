@@ -1,8 +1,9 @@
 // The compressed wide tree (kernel/compressed_bvh.hpp): its boxes hold the wide tree's, its box test never rejects
-// a box that exact distances enter, oversized leaves are split, and the walk visits a node's children nearest first.
+// a box that exact distances enter, oversized leaves are split, and the walk visits the nearer side of a node first.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
