@@ -26,8 +26,8 @@ struct alignas(16) CompressedBoxes {
 // A node: its boxes, then what each slot holds, read only for the slots a ray enters: an inner node's index, or
 // a leaf's first primitive and its count (count 0: an empty slot, whose box is empty too). Children are placed in
 // slots by where they lie in the node (slot bit 0 for the +x side, bit 1 +y, bit 2 +z, as well as eight children
-// allow), so that a ray whose direction has sign bits s (bit set where negative) meets them roughly nearest first
-// in the order slot k ^ s, k = 0, 1, ...: the walk visits them so, without sorting.
+// allow), so that the walk can visit them roughly nearest first in an order that the ray's direction alone gives
+// (CompressedRay), without sorting.
 struct alignas(16) CompressedWideNode {
   CompressedBoxes boxes;
   u32 child[kCompressedWidth];
