@@ -50,19 +50,10 @@ u8 upper_byte(float origin, int e, float hi) {
   return static_cast<u8>(q);
 }
 
-// Places up to eight children in slots by direction (slot bit 0: +x side, bit 1: +y, bit 2: +z), greedily: the
-// child and slot whose direction agree best first (Ylitie, Karras and Laine's assignment). Returns the child for each
-// slot, or -1 for an empty one.
-std::array<int, kCompressedWidth> assign_slots(const std::vector<Child>& children) {
-  std::array<double, 3> centre{};
-  std::array<double, 3> node_lo{}, node_hi{};
-  for (int a = 0; a < 3; ++a) {
-    node_lo[a] = std::numeric_limits<double>::infinity();
-    node_hi[a] = -std::numeric_limits<double>::infinity();
-    for (const Child& c : children)
-      node_lo[a] = std::min(node_lo[a], static_cast<double>(c.lo[a])), node_hi[a] = std::max(node_hi[a], static_cast<double>(c.hi[a]));
-    centre[a] = 0.5 * (node_lo[a] + node_hi[a]);
-  }
+// Places up to eight children in slots by direction from the node's centre (slot bit 0: +x side, bit 1: +y, bit 2:
+// +z), greedily: the child and slot whose direction agree best first (Ylitie, Karras and Laine's assignment). Returns
+// the child for each slot, or -1 for an empty one.
+std::array<int, kCompressedWidth> assign_slots(const std::vector<Child>& children, const std::array<double, 3>& centre) {
   struct Pair {
     double agreement;
     int child, slot;
@@ -142,14 +133,16 @@ class Compressor {
         c.count = 0;
       }
     int exponent[3];
+    std::array<double, 3> centre{};
     for (int a = 0; a < 3; ++a) {
       float lo = std::numeric_limits<float>::infinity(), hi = -lo;
       for (const Child& c : children) lo = std::min(lo, c.lo[a]), hi = std::max(hi, c.hi[a]);
       boxes.origin[a] = lo;
       exponent[a] = grid_exponent(lo, hi);
       boxes.exponent[a] = static_cast<std::int8_t>(exponent[a]);
+      centre[a] = 0.5 * (static_cast<double>(lo) + static_cast<double>(hi));
     }
-    const std::array<int, kCompressedWidth> slot_child = assign_slots(children);
+    const std::array<int, kCompressedWidth> slot_child = assign_slots(children, centre);
     for (u32 slot = 0; slot < kCompressedWidth; ++slot) {
       if (slot_child[slot] < 0) continue;
       const Child& c = children[static_cast<std::size_t>(slot_child[slot])];

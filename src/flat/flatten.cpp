@@ -756,9 +756,10 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   else
     bounds_in_double.reserve(primitives.size());
   Aabb scene_box;  // the union in double, the root of the tree: the scene's box as the lights see it
+  const std::size_t primitive_count = primitives.size();
   std::vector<bool> instances;  // which primitives are mesh instances (empty where none is)
   std::vector<Primitive<T>> converted;
-  converted.reserve(primitives.size());
+  converted.reserve(primitive_count);
   for (std::size_t i = 0; !primitives.empty(); ++i) {
     Primitive<double>& p = primitives.front();
     Aabb box;
@@ -768,7 +769,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
       const u32 use = instance->mesh;  // the placement's index until here; now its mesh and transform
       box = instance_bounds[use];
       *instance = MeshInstance<double>{instance_mesh[use], instance_transform[use]};
-      if (instances.empty()) instances.resize(primitives.size() + i);
+      if (instances.empty()) instances.resize(primitive_count);
       instances[i] = true;
     } else {
       box = geometry_bounds(p, open, close);

@@ -100,8 +100,7 @@ struct CompressedRay {
 };
 
 PT_HD inline CompressedRay make_compressed_ray(const Ray<float>& ray) {
-  using Traits = ScalarTraits<float>;
-  const Vec3<float> inv{Traits::slab_reciprocal(ray.direction.x), Traits::slab_reciprocal(ray.direction.y), Traits::slab_reciprocal(ray.direction.z)};
+  const Vec3<float> inv = slab_reciprocals(ray);
   const bool neg_x = inv.x < 0.0f, neg_y = inv.y < 0.0f, neg_z = inv.z < 0.0f;
   const float ax = ::fabsf(ray.direction.x), ay = ::fabsf(ray.direction.y), az = ::fabsf(ray.direction.z);
   // Each axis's rank among the three by |direction| (ties broken x < y < z).
