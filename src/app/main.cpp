@@ -229,8 +229,9 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     for (const std::string& warning : scene.warnings) fmt::print(stderr, "warning: {}\n", escape_control_characters(warning));
   const RenderSettings settings = effective_settings(options, scene);
   // What follows needs only the description's source: its objects, materials and textures go once converted.
-  // The CPU backend walks only the wide tree: the binary one is not kept (a large scene's largest array after the primitives).
-  const bool binary_tree = options.backend != "cpu";
+  // The CPU backend walks only the wide tree in floating point: the binary one is not kept then (a large scene's largest
+  // array after the primitives). Fixed point walks the binary tree everywhere (kernel/bvh.hpp, walk_tree).
+  const bool binary_tree = options.backend != "cpu" || !std::is_floating_point_v<T>;
   const FlatScene<T> flat = phases.time("flatten (BVH included)", [&] { return flatten_scene_releasing<T>(scene, settings, 0, binary_tree); });
   phases.add("  of which BVH build", flat.bvh_seconds);
   check_outputs_are_not_inputs(options);
@@ -383,6 +384,7 @@ int render_with(const RenderOptions& options, Clock::time_point program_start, D
     u64 all = 0;
     for (const auto& share : shares) all += share.second;
     for (const auto& [name, share] : shares) fmt::print(stderr, "  {:5.1f}% of the samples: {}\n", all ? 100.0 * share / all : 0.0, name);
+    for (const std::string& line : backend->report()) fmt::print(stderr, "  {}\n", line);
     if (film.stopped_early)
       fmt::print(stderr, "stopped by {} after {} of {} samples per pixel{}\n",
                  caught                ? (caught == SIGINT ? "an interrupt (SIGINT)" : "SIGTERM")

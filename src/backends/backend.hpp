@@ -118,6 +118,9 @@ class RenderBackend {
   // Where the work went when several devices or processes render one image: each one's name and the
   // pixel-samples it rendered since the last upload; empty for a single device.
   virtual std::vector<std::pair<std::string, u64>> work_shares() const { return {}; }
+
+  // Lines the backend adds to a render's summary (the rtl backend: what its engine did).
+  virtual std::vector<std::string> report() const { return {}; }
 };
 
 }  // namespace pt

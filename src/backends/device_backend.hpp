@@ -53,6 +53,8 @@ class DeviceBackend final : public RenderBackend<T> {
       view_.meshes.compressed_nodes = memory_.upload(mesh_compressed, "copying the compressed mesh BVHs");
     }
 #endif
+    // A device that holds a copy of the scene elsewhere (the rtl backend's engine memory) takes it here.
+    if constexpr (requires { device_.take_scene(view_); }) device_.take_scene(view_);
     const std::size_t pixels = static_cast<std::size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(memory_.allocate(pixels * sizeof(FilmPixel), "allocating the film"));
     film_pixels_ = pixels;
@@ -152,6 +154,11 @@ class DeviceBackend final : public RenderBackend<T> {
   }
 
   u64 saturations() const override { return device_.saturations() - saturations_before_; }
+
+  std::vector<std::string> report() const override {
+    if constexpr (requires { device_.report(); }) return device_.report();
+    return {};
+  }
 
  private:
   void integrate_rows(u32 first_row, u32 row_count, FilmPixel* film, u32 first_sample, u32 sample_count) {

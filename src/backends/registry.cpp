@@ -16,6 +16,9 @@
 #if PT_HAVE_SYCL
 #include "backends/sycl/sycl_backend.hpp"
 #endif
+#if PT_HAVE_RTL
+#include "backends/rtl/rtl_backend.hpp"
+#endif
 
 namespace pt {
 
@@ -26,6 +29,9 @@ std::vector<std::string> backend_names() {
 #endif
 #if PT_HAVE_SYCL
   names.push_back("sycl");
+#endif
+#if PT_HAVE_RTL
+  names.push_back("rtl");
 #endif
   return names;
 }
@@ -38,11 +44,15 @@ std::string backend_choices() {
 
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_backend(const std::string& name, unsigned threads, int device, Integrator integrator, int sycl_device) {
+#if PT_HAVE_RTL
+  if (name == "rtl") return make_rtl_backend<T>(threads, integrator == Integrator::kAuto ? Integrator::kWavefront : integrator);
+#endif
   if constexpr (is_fixed_v<T>) {
     // The GPU backends are built for float and double only: fixed-point formats are explored on the host.
     (void)device;
     (void)sycl_device;
-    if (name != "cpu" && name != "auto") throw BackendError(fmt::format("number format {} renders on the cpu backend only", number_format_name<T>()));
+    if (name != "cpu" && name != "auto")
+      throw BackendError(fmt::format("number format {} renders on the cpu{} backend only", number_format_name<T>(), PT_HAVE_RTL ? " and rtl" : ""));
     return make_cpu_backend<T>(threads, integrator);
   } else {
 #if PT_HAVE_SYCL
@@ -158,6 +168,11 @@ std::vector<DeviceDescription> describe_devices() {
   for (DeviceDescription& d : sycl_devices()) devices.push_back(std::move(d));
 #else
   devices.push_back({"sycl", -1, "not built"});
+#endif
+#if PT_HAVE_RTL
+  devices.push_back({"rtl", -1, "the traversal engine's cycle-accurate model, fixed point: " + rtl_formats()});
+#else
+  devices.push_back({"rtl", -1, "not built"});
 #endif
   return devices;
 }

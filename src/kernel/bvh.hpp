@@ -373,7 +373,7 @@ PT_HD inline bool walk_wide(const WideBvhNode<T>* nodes, u32 root, const WideRay
 }
 
 // GPU threads are the SIMD lanes already, and a wide node would lengthen each thread's serial work, so GPUs walk the
-// binary tree; host CPUs the wide one, testing a node's boxes at once. Under AdaptiveCpp's single-pass compiler one
+// binary tree; host CPUs the wide one in floating point, testing a node's boxes at once. Under AdaptiveCpp's single-pass compiler one
 // source serves both: the choice is a branch that its run-time compiler folds for the target at hand. A CUDA build
 // with PT_CUDA_COMPRESSED_BVH walks the compressed wide tree in float instead (kernel/compressed_bvh.hpp; slower on
 // an H200 as it stands: BENCHMARKS.md, "A compressed wide BVH on the GPU"), which shares the wide tree's indices.
@@ -391,6 +391,9 @@ PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_
   __acpp_if_target_device(return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);) return walk_wide(wide_nodes, wide_root,
                                                                                                                make_wide_ray(ray), closest, leaf);
 #else
+  // Fixed point walks the binary tree here too: it is the datapath a hardware engine implements (the rtl backend),
+  // and the order of a walk decides between hits at equal distances, so the host walks it as the engine does.
+  if constexpr (!std::is_floating_point_v<T>) return walk_binary(nodes, root, make_box_ray(ray), closest, leaf);
   (void)nodes;
   (void)root;
   // A view given the compressed trees on the host walks them (the tests check that tree against brute force so).
@@ -537,6 +540,7 @@ PT_HD inline bool closest_hit(const SceneView<T>& scene, const Ray<T>& ray, cons
 #elif defined(PT_ACPP_SINGLE_PASS)
   __acpp_if_target_device(return closest_hit_binary(scene, ray, context, hit, t_max);) return closest_hit_wide(scene, ray, context, hit, t_max);
 #else
+  if constexpr (!std::is_floating_point_v<T>) return closest_hit_binary(scene, ray, context, hit, t_max);  // see walk_tree
   return closest_hit_wide(scene, ray, context, hit, t_max);
 #endif
 }

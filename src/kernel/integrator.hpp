@@ -142,24 +142,13 @@ PT_HD inline bool quad_light_reached(const SceneView<T>& scene, u32 primitive, c
   return true;
 }
 
-// What a shadow ray adds to its path's radiance: the light's emission where the ray meets the light it aimed at
-// before anything else, times the transmittance of the media it crosses (exact for constant media: exp(-density x
-// length inside)), weighted by MIS against scattering.
+// What a shadow ray adds to its path's radiance, given what its closest-hit query found (`blocked`, `hit`, and the
+// optical depth of the media it crossed): the light's emission where the ray meets the light it aimed at before
+// anything else, times the transmittance of those media (exact for constant media: exp(-density x length inside)),
+// weighted by MIS against scattering. A backend that traces the query elsewhere (the rtl backend's engine) calls this.
 template <class T>
-PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
+PT_HD Color<T> shadow_contribution_found(const SceneView<T>& scene, const ShadowRay<T>& shadow, bool blocked, Hit<T> hit, T optical_depth) {
   const LightEntry<T>& light = scene.lights.entries[shadow.entry];
-  Hit<T> hit{};
-  T optical_depth = T(0);
-  IntersectContext<T> context{scene.boundaries, &random, 0, &optical_depth};
-  if constexpr (std::is_floating_point_v<T>) {
-    // The walk stops at the first hit that blocks the ray: any hit for the background; for a shape, a hit on another
-    // primitive before the light's point (the light is met at its point, so such a hit is in front of it whatever
-    // lies nearer), with a margin of a 1024th of the way, far above either distance's rounding. The answer is the
-    // closest hit's; fixed point, whose steps can exceed that margin on short rays, searches for the closest.
-    context.light_primitive = light.primitive;
-    context.blocked_before = light.primitive == kNoLight ? shadow.distance : shadow.distance - shadow.distance * constant<T>(1.0 / 512);
-  }
-  const bool blocked = closest_hit(scene, shadow.ray, context, hit, shadow.distance);
   if (light.primitive == kNoLight) {
     // The density sample_light drew the direction with (the background's is known then): not looked up again.
     const T light_density = shadow.light_pdf;
@@ -181,6 +170,25 @@ PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, c
   if (!(light_density > T(0))) return Color<T>{};
   return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) *
          (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
+}
+
+// What a shadow ray adds to its path's radiance: its closest-hit query traced here, then shadow_contribution_found.
+template <class T>
+PT_HOST_NOINLINE PT_HD Color<T> shadow_contribution(const SceneView<T>& scene, const ShadowRay<T>& shadow, const SampleRandom& random) {
+  const LightEntry<T>& light = scene.lights.entries[shadow.entry];
+  Hit<T> hit{};
+  T optical_depth = T(0);
+  IntersectContext<T> context{scene.boundaries, &random, 0, &optical_depth};
+  if constexpr (std::is_floating_point_v<T>) {
+    // The walk stops at the first hit that blocks the ray: any hit for the background; for a shape, a hit on another
+    // primitive before the light's point (the light is met at its point, so such a hit is in front of it whatever
+    // lies nearer), with a margin of a 1024th of the way, far above either distance's rounding. The answer is the
+    // closest hit's; fixed point, whose steps can exceed that margin on short rays, searches for the closest.
+    context.light_primitive = light.primitive;
+    context.blocked_before = light.primitive == kNoLight ? shadow.distance : shadow.distance - shadow.distance * constant<T>(1.0 / 512);
+  }
+  const bool blocked = closest_hit(scene, shadow.ray, context, hit, shadow.distance);
+  return shadow_contribution_found(scene, shadow, blocked, hit, optical_depth);
 }
 
 // The path hit something: it gathers the emission there, picks a light to sample (next-event estimation: the shadow

@@ -191,19 +191,25 @@ PT_HD inline void wavefront_generate(const SceneView<T>& scene, const WavefrontV
 }
 
 // Stage 2: the closest hit of the path in `slot` (media sample their free-flight distance here, as primitives);
-// the path joins its material's queue or the escaped queue.
+// the path joins its material's queue or the escaped queue (wavefront_queue_hit).
 template <class T>
-PT_HD inline void wavefront_intersect(const SceneView<T>& scene, const WavefrontView<T>& w, u32 slot) {
-  const PathState<T> path = w.current.load(slot);
-  const SampleRandom random = wavefront_random(scene, w, w.current.item[slot]);
-  Hit<T> hit{};
-  if (closest_hit(scene, path.ray, IntersectContext<T>{scene.boundaries, &random, path.bounce}, hit)) {
+PT_HD inline void wavefront_queue_hit(const WavefrontView<T>& w, const SceneView<T>& scene, u32 slot, bool found, const Hit<T>& hit) {
+  if (found) {
     w.hits.store(slot, hit);
     const u32 material_class = hit_material_class(scene, hit);
     w.material_queue(material_class)[queue_push(w.counters + kCounterFirstMaterial + material_class)] = slot;
   } else {
     w.escaped[queue_push(w.counters + kCounterEscaped)] = slot;
   }
+}
+
+template <class T>
+PT_HD inline void wavefront_intersect(const SceneView<T>& scene, const WavefrontView<T>& w, u32 slot) {
+  const PathState<T> path = w.current.load(slot);
+  const SampleRandom random = wavefront_random(scene, w, w.current.item[slot]);
+  Hit<T> hit{};
+  const bool found = closest_hit(scene, path.ray, IntersectContext<T>{scene.boundaries, &random, path.bounce}, hit);
+  wavefront_queue_hit(w, scene, slot, found, hit);
 }
 
 // Stage 3: escaped paths gather the background and end.
@@ -240,14 +246,18 @@ PT_HD inline void wavefront_shade(const SceneView<T>& scene, const WavefrontView
 // path's radiance exactly where the megakernel adds it, after the emission of the same bounce and before anything
 // of the next (the escaped and shade stages come after this launch).
 template <class T>
-PT_HD inline void wavefront_shadow(const SceneView<T>& scene, const WavefrontView<T>& w, u32 queue_index) {
-  const u32 item = w.shadows.item[queue_index];
-  const Color<T> contribution = shadow_contribution(scene, w.shadows.load(queue_index), wavefront_random(scene, w, item));
+PT_HD inline void wavefront_add_shadow(const WavefrontView<T>& w, u32 queue_index, const Color<T>& contribution) {
   const u32 slot = w.shadows.slot[queue_index];
   if (slot != kNoLight)
     w.current.radiance[slot] += contribution;
   else
-    w.results[item].radiance += contribution;
+    w.results[w.shadows.item[queue_index]].radiance += contribution;
+}
+
+template <class T>
+PT_HD inline void wavefront_shadow(const SceneView<T>& scene, const WavefrontView<T>& w, u32 queue_index) {
+  const u32 item = w.shadows.item[queue_index];
+  wavefront_add_shadow(w, queue_index, shadow_contribution(scene, w.shadows.load(queue_index), wavefront_random(scene, w, item)));
 }
 
 // Stage 6, once per batch: each pixel adds its samples in sample order, exactly as the megakernel does (`index`

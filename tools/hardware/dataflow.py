@@ -273,6 +273,14 @@ class Unit:
     def verilog(self) -> str:
         return Emitter(self).emit()
 
+    def verilog_parts(self) -> tuple[str, dict[str, str]]:
+        """The unit's module and, apart, the submodules it instantiates by name (dividers, roots), so that several
+        units can share one file without defining a submodule twice."""
+        emitter = Emitter(self)
+        text = emitter.emit()
+        main = text[: len(text) - len("".join(emitter.modules.values()))]
+        return main, dict(emitter.modules)
+
 
 class Emitter:
     def __init__(self, unit: Unit):

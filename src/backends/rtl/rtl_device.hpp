@@ -1,0 +1,329 @@
+// The rtl backend's device: the CPU device, except that the wavefront's intersect stage (closest hits and shadow
+// rays) runs in the cycle-accurate model of the traversal engine (traversal_engine.v, made into C++ by Verilator):
+// the scene's tree and primitives are loaded into the engine's memory, each launch's rays stream through it with
+// many in flight, and what it finds goes on through the same kernel functions as on the CPU.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "backends/cpu/cpu_device.hpp"
+#include "kernel/fixed_point.hpp"
+#include "kernel/wavefront.hpp"
+
+namespace pt {
+
+// What the engine did, per kind of ray: rays, clocks from entering to leaving the engine, and tests issued.
+struct EngineTally {
+  u64 rays = 0, latency_clocks = 0, box_tests = 0, primitive_tests = 0;
+};
+
+struct EngineCounters {
+  u64 clocks = 0;  // clocks the engine ran while rays were in it
+  u64 box_issues = 0, sphere_issues = 0, triangle_issues = 0, quad_issues = 0;
+  EngineTally primary, bounce, shadow;
+};
+
+// One query to the engine: a ray and the distance before which hits count.
+template <class T>
+struct EngineQuery {
+  Ray<T> ray;
+  T t_max;
+  EngineTally* tally;
+};
+
+struct EngineAnswer {
+  bool found;
+  u32 primitive;
+  std::int64_t t, b1, b2;  // raw fixed-point values
+};
+
+// Model: the Verilated engine in T's format (Vtraversal_engine_qI_F).
+template <class T, class Model>
+class RtlDevice {
+ public:
+  static_assert(is_fixed_v<T>, "the traversal engine computes in fixed point");
+  static constexpr u32 kWordBits = T::kTotalBits;
+  static constexpr u32 kNodeBits = 16, kPrimitiveBits = 16;  // the engine's memories (traversal_engine.v parameters)
+
+  explicit RtlDevice(unsigned threads) : cpu_(threads), model_(std::make_unique<Model>()) {
+    model_->reset = 1;
+    tick();
+    tick();
+    model_->reset = 0;
+  }
+
+  std::string kind() const { return "rtl"; }
+  std::string description() const {
+    return fmt::format("traversal engine in Q{}.{}, {} rays in flight, cycle-accurate model; other stages on {}", T::kIntegerBits, T::kFractionBits, 32,
+                       cpu_.description());
+  }
+  bool host() const { return true; }
+  Integrator preferred_integrator() const { return Integrator::kWavefront; }
+  bool memory_on_host() const { return true; }
+  bool times_on_device() const { return false; }
+  void* allocate(std::size_t bytes, const char* what) { return cpu_.allocate(bytes, what); }
+  void release(void* pointer) { cpu_.release(pointer); }
+  void copy_to_device(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_device(to, from, bytes, what); }
+  void copy_to_host(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_host(to, from, bytes, what); }
+  void clear(void* to, std::size_t bytes, const char* what) { cpu_.clear(to, bytes, what); }
+  void synchronise(const char* what) { cpu_.synchronise(what); }
+  using Timer = CpuDevice::Timer;
+  Timer start_timer() const { return cpu_.start_timer(); }
+  void stop_timer(Timer start, double* seconds) const { cpu_.stop_timer(start, seconds); }
+  u64 saturations() const { return cpu_.saturations(); }
+  template <class Kernel>
+  void launch_image(const char* what, u32 width, u32 height, const Kernel& kernel) {
+    cpu_.launch_image(what, width, height, kernel);
+  }
+
+  // The intersect stage's launches go to the engine; every other stage runs on the CPU.
+  template <class Kernel>
+  void launch(const char* what, u32 count, const Kernel& kernel) {
+    if constexpr (std::is_same_v<Kernel, WavefrontIntersect<T>>)
+      intersect(kernel.scene, kernel.view, count, 0);
+    else if constexpr (std::is_same_v<Kernel, WavefrontIntersectAndShadow<T>>)
+      intersect(kernel.scene, kernel.view, kernel.paths, count - kernel.paths);
+    else
+      cpu_.launch(what, count, kernel);
+  }
+
+  // Loads the scene's binary tree and primitives into the engine's memory; a scene it cannot hold is refused.
+  void take_scene(const SceneView<T>& scene) {
+    u32 node_count = 0, primitive_count = 0;
+    std::vector<u32> pending{0};
+    while (!pending.empty()) {  // the nodes reachable from the root, and the primitives their leaves hold
+      const u32 index = pending.back();
+      pending.pop_back();
+      node_count = std::max(node_count, index + 1);
+      const BvhNode<T>& node = scene.nodes[index];
+      if (node.count > 0) {
+        primitive_count = std::max(primitive_count, node.left_first + node.count);
+      } else {
+        pending.push_back(index + 1);
+        pending.push_back(node.left_first);
+      }
+    }
+    if (node_count > (1u << kNodeBits) || primitive_count > (1u << kPrimitiveBits))
+      throw BackendError(fmt::format("the scene has {} BVH nodes and {} primitives; the traversal engine holds {} of each", node_count,
+                                     primitive_count, 1u << kNodeBits));
+    for (u32 i = 0; i < primitive_count; ++i) {
+      const char* refused = std::visit(RefusedShape{}, scene.primitives[i].shape);
+      if (refused) throw BackendError(fmt::format("the scene has {} (primitive {}), which the traversal engine does not hold yet", refused, i));
+    }
+    for (u32 i = 0; i < node_count; ++i) {
+      const BvhNode<T>& node = scene.nodes[i];
+      clear_words(model_->node_data);
+      const T bounds[6] = {node.lo.x, node.lo.y, node.lo.z, node.hi.x, node.hi.y, node.hi.z};
+      for (u32 b = 0; b < 6; ++b) put(model_->node_data, b * kWordBits, kWordBits, raw(bounds[b]));
+      put(model_->node_data, 6 * kWordBits, 32, node.left_first);
+      put(model_->node_data, 6 * kWordBits + 32, 32, node.count);
+      model_->node_write = 1;
+      model_->node_address = i;
+      tick();
+    }
+    model_->node_write = 0;
+    for (u32 i = 0; i < primitive_count; ++i) {
+      clear_words(model_->primitive_data);
+      std::array<T, 14> fields{};
+      const u32 kind = std::visit(PrimitiveFields{fields}, scene.primitives[i].shape);
+      for (u32 f = 0; f < fields.size(); ++f) put(model_->primitive_data, f * kWordBits, kWordBits, raw(fields[f]));
+      put(model_->primitive_data, 14 * kWordBits, 2, kind);
+      model_->primitive_write = 1;
+      model_->primitive_address = i;
+      tick();
+    }
+    model_->primitive_write = 0;
+  }
+
+  // What the engine did since the device was made, as lines for the render's summary.
+  std::vector<std::string> report() const {
+    const EngineCounters& c = counters_;
+    const u64 rays = c.primary.rays + c.bounce.rays + c.shadow.rays;
+    std::vector<std::string> lines{fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box {:.1f}%, sphere {:.1f}%, "
+                                               "triangle {:.1f}%, quad {:.1f}%",
+                                               rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues), share(c.sphere_issues),
+                                               share(c.triangle_issues), share(c.quad_issues))};
+    for (const auto& [name, tally] : {std::pair{"primary", &c.primary}, std::pair{"bounce", &c.bounce}, std::pair{"shadow", &c.shadow}}) {
+      const double n = std::max<double>(1, tally->rays);
+      lines.push_back(fmt::format("  {} rays: {}, {:.1f} clocks each in the engine, {:.1f} box and {:.1f} primitive tests each", name, tally->rays,
+                                  tally->latency_clocks / n, tally->box_tests / n, tally->primitive_tests / n));
+    }
+    return lines;
+  }
+
+  const EngineCounters& counters() const { return counters_; }
+
+ private:
+  // The engine's kind of each primitive (traversal_engine.v), its 14 fields; spheres go as moving spheres that stand.
+  struct PrimitiveFields {
+    std::array<T, 14>& f;
+    u32 operator()(const Sphere<T>& s) const {
+      set(0, s.center);
+      f[3] = s.radius;
+      return 0;
+    }
+    u32 operator()(const MovingSphere<T>& s) const {
+      set(0, s.center0);
+      f[3] = s.radius;
+      set(4, s.velocity);
+      f[7] = s.time0;
+      return 0;
+    }
+    u32 operator()(const Triangle<T>& t) const {
+      set(0, t.p0);
+      set(3, t.edge1);
+      set(6, t.edge2);
+      return 1;
+    }
+    u32 operator()(const Quad<T>& q) const {
+      set(0, q.corner);
+      set(3, q.normal);
+      set(6, q.du);
+      set(9, q.dv);
+      f[12] = q.u_extent;
+      f[13] = q.v_extent;
+      return 2;
+    }
+    template <class Other>
+    u32 operator()(const Other&) const {
+      return 3;
+    }
+    void set(u32 at, const Vec3<T>& v) const {
+      f[at] = v.x;
+      f[at + 1] = v.y;
+      f[at + 2] = v.z;
+    }
+  };
+  struct RefusedShape {
+    const char* operator()(const ConstantMedium<T>&) const { return "a constant medium"; }
+    const char* operator()(const MeshInstance<T>&) const { return "a mesh instance"; }
+    template <class Other>
+    const char* operator()(const Other&) const {
+      return nullptr;
+    }
+  };
+
+  static u64 raw(T value) { return static_cast<u64>(static_cast<std::int64_t>(value.raw)); }
+  static T from_word(u32 word) {
+    const std::int64_t value = static_cast<std::int64_t>(static_cast<u64>(word) << (64 - kWordBits)) >> (64 - kWordBits);
+    return T::from_raw(static_cast<typename T::Storage>(value));
+  }
+  template <class Words>
+  static void clear_words(Words& words) {
+    std::memset(&words, 0, sizeof words);
+  }
+  // Sets bits [lsb, lsb + width) of a wide port (Verilator keeps them as 32-bit words, least significant first).
+  template <class Words>
+  static void put(Words& words, u32 lsb, u32 width, u64 value) {
+    for (u32 bit = 0; bit < width; ++bit) {
+      const u32 at = lsb + bit;
+      const u32 mask = 1u << (at % 32);
+      if ((value >> bit) & 1u)
+        words[at / 32] |= mask;
+      else
+        words[at / 32] &= ~mask;
+    }
+  }
+  double share(u64 issues) const { return 100.0 * issues / std::max<u64>(1, counters_.clocks); }
+
+  void tick() {
+    model_->clk = 0;
+    model_->eval();
+    model_->clk = 1;
+    model_->eval();
+  }
+
+  // The launch's closest-hit queries (paths first, then shadow rays) through the engine, then the rest of the stage.
+  void intersect(const SceneView<T>& scene, const WavefrontView<T>& w, u32 paths, u32 shadows) {
+    queries_.clear();
+    for (u32 i = 0; i < paths; ++i) {
+      const PathState<T> path = w.current.load(i);
+      queries_.push_back({path.ray, largest<T>(), path.bounce == 0 ? &counters_.primary : &counters_.bounce});
+    }
+    std::vector<ShadowRay<T>> shadow_rays(shadows);
+    for (u32 i = 0; i < shadows; ++i) {
+      shadow_rays[i] = w.shadows.load(i);
+      queries_.push_back({shadow_rays[i].ray, shadow_rays[i].distance, &counters_.shadow});
+    }
+    run(queries_);
+    for (u32 i = 0; i < paths + shadows; ++i) {
+      const EngineAnswer& a = answers_[i];
+      Hit<T> hit{};
+      if (a.found) {
+        hit.t = T::from_raw(static_cast<typename T::Storage>(a.t));
+        hit.b1 = T::from_raw(static_cast<typename T::Storage>(a.b1));
+        hit.b2 = T::from_raw(static_cast<typename T::Storage>(a.b2));
+        hit.primitive = a.primitive;
+        hit.triangle = 0;
+      }
+      if (i < paths)
+        wavefront_queue_hit(w, scene, i, a.found, hit);
+      else
+        wavefront_add_shadow(w, i - paths, shadow_contribution_found(scene, shadow_rays[i - paths], a.found, hit, T(0)));
+    }
+  }
+
+  // Streams the queries through the engine, one offered a clock, until every answer is back.
+  void run(const std::vector<EngineQuery<T>>& queries) {
+    answers_.assign(queries.size(), EngineAnswer{});
+    entered_.assign(queries.size(), 0);
+    Model& m = *model_;
+    std::size_t next = 0, back = 0;
+    while (back < queries.size()) {
+      m.ray_valid = next < queries.size();
+      if (m.ray_valid) {
+        const EngineQuery<T>& q = queries[next];
+        m.ray_id = static_cast<u32>(next);
+        m.origin_x = static_cast<u32>(raw(q.ray.origin.x));
+        m.origin_y = static_cast<u32>(raw(q.ray.origin.y));
+        m.origin_z = static_cast<u32>(raw(q.ray.origin.z));
+        m.direction_x = static_cast<u32>(raw(q.ray.direction.x));
+        m.direction_y = static_cast<u32>(raw(q.ray.direction.y));
+        m.direction_z = static_cast<u32>(raw(q.ray.direction.z));
+        m.ray_time = static_cast<u32>(raw(q.ray.time));
+        m.t_max = static_cast<u32>(raw(q.t_max));
+      }
+      m.clk = 0;
+      m.eval();
+      const bool accepted = m.ray_valid && m.ray_ready;
+      counters_.box_issues += m.box_issue;
+      counters_.sphere_issues += m.sphere_issue;
+      counters_.triangle_issues += m.triangle_issue;
+      counters_.quad_issues += m.quad_issue;
+      m.clk = 1;
+      m.eval();
+      ++counters_.clocks;
+      if (accepted) entered_[next++] = counters_.clocks;
+      if (m.hit_valid) {
+        const u32 id = m.hit_id;
+        answers_[id] = EngineAnswer{m.hit_found != 0, m.hit_primitive, from_word(m.hit_t).raw, from_word(m.hit_b1).raw, from_word(m.hit_b2).raw};
+        EngineTally& tally = *queries[id].tally;
+        ++tally.rays;
+        tally.latency_clocks += counters_.clocks - entered_[id];
+        tally.box_tests += m.hit_box_tests;
+        tally.primitive_tests += m.hit_primitive_tests;
+        ++back;
+      }
+    }
+    m.ray_valid = 0;
+  }
+
+  CpuDevice cpu_;
+  std::unique_ptr<Model> model_;
+  EngineCounters counters_;
+  std::vector<EngineQuery<T>> queries_;
+  std::vector<EngineAnswer> answers_;
+  std::vector<u64> entered_;
+};
+
+}  // namespace pt

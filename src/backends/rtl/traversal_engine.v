@@ -1,0 +1,342 @@
+// The traversal engine: the closest-hit search of src/kernel/bvh.hpp (walk_binary over the scene's binary BVH, the
+// primitive tests of SceneLeaf) as hardware, with many rays in flight. Its arithmetic is the generated units'
+// (tools/hardware/units.py --engine-units, which `define the unit modules named below); this file is the control.
+//
+// Each ray lives in a context: its ray and reciprocal direction, the closest hit so far, a 64-entry stack and where
+// its walk stands. Every clock the scheduler picks one context that has a test to issue (the lowest-numbered),
+// reads the node or primitive it needs from on-chip memory (one clock), and issues the test to its unit the clock
+// after; the result comes back through the unit's pipeline, tagged with the context in a FIFO (the units keep
+// order), and moves that context on. A context thus walks exactly as walk_binary does: the root's box first, then
+// at an inner node both children's boxes, the nearer entered first and the other pushed (the first child where the
+// entries are equal), a leaf's primitives one after another, each tested against the closest hit so far, so that
+// hits at equal distances resolve as in the kernel. The many contexts keep the pipelines busy meanwhile, in the
+// manner of the multithreaded ray processors (Woop, Schmittler and Slusallek 2005; TRaX).
+//
+// Scene memory: nodes as {count, left_first, hi.z, hi.y, hi.x, lo.z, lo.y, lo.x} (BvhNode), primitives as
+// {kind, 14 fields} (kind 0: a sphere as a moving one, fields center0, radius, velocity, time0; 1: a triangle, p0,
+// edge1, edge2; 2: a quad, corner, normal, du, dv, u_extent, v_extent), written through the load ports before rays
+// are sent. Left out: mesh instances and constant media (the host refuses scenes that have them).
+`default_nettype none
+module traversal_engine #(
+  parameter W = `PT_ENGINE_WORD,      // bits of a fixed-point value
+  parameter CONTEXT_BITS = 5,         // 2^CONTEXT_BITS rays in flight
+  parameter NODE_BITS = 16,           // node memory: 2^NODE_BITS entries
+  parameter PRIMITIVE_BITS = 16,      // primitive memory: 2^PRIMITIVE_BITS entries
+  parameter NODE_WIDTH = 6 * W + 64,
+  parameter PRIMITIVE_WIDTH = 14 * W + 2
+) (
+  input wire clk,
+  input wire reset,
+  input wire node_write,
+  input wire [NODE_BITS-1:0] node_address,
+  input wire [NODE_WIDTH-1:0] node_data,
+  input wire primitive_write,
+  input wire [PRIMITIVE_BITS-1:0] primitive_address,
+  input wire [PRIMITIVE_WIDTH-1:0] primitive_data,
+  // A ray enters when ray_valid and ray_ready are both high at a clock edge.
+  input wire ray_valid,
+  output wire ray_ready,
+  input wire [31:0] ray_id,
+  input wire signed [W-1:0] origin_x, origin_y, origin_z,
+  input wire signed [W-1:0] direction_x, direction_y, direction_z,
+  input wire signed [W-1:0] ray_time,
+  input wire signed [W-1:0] t_max,
+  // One finished ray per clock at most: hit_found says whether anything was hit before t_max.
+  output reg hit_valid,
+  output reg [31:0] hit_id,
+  output reg hit_found,
+  output reg signed [W-1:0] hit_t, hit_b1, hit_b2,
+  output reg [31:0] hit_primitive,
+  output reg [15:0] hit_box_tests,
+  output reg [15:0] hit_primitive_tests,
+  // Which units take a test this clock (for utilisation).
+  output wire box_issue,
+  output wire sphere_issue,
+  output wire triangle_issue,
+  output wire quad_issue
+);
+  localparam CONTEXTS = 1 << CONTEXT_BITS;
+  localparam DEPTH = 64;  // kBvhMaxDepth
+  localparam FIFO_BITS = 7;  // tags in flight per unit: more than the deepest unit's latency
+  localparam [3:0] FREE = 0, SETUP = 1, ROOT = 2, BOX0 = 3, BOX1 = 4, PRIMITIVE = 5, ISSUING = 6, WAITING = 7, DONE = 8;
+  localparam [1:0] WHICH_FIRST = 0, WHICH_SECOND = 1, WHICH_ROOT = 2;
+  localparam [1:0] KIND_SPHERE = 0, KIND_TRIANGLE = 1, KIND_QUAD = 2;
+
+  reg [NODE_WIDTH-1:0] nodes [0:(1 << NODE_BITS) - 1];
+  reg [PRIMITIVE_WIDTH-1:0] primitives [0:(1 << PRIMITIVE_BITS) - 1];
+
+  // ---- Contexts ----
+  reg [3:0] state [0:CONTEXTS-1];
+  reg [31:0] id [0:CONTEXTS-1];
+  reg signed [W-1:0] ox [0:CONTEXTS-1], oy [0:CONTEXTS-1], oz [0:CONTEXTS-1];
+  reg signed [W-1:0] dx [0:CONTEXTS-1], dy [0:CONTEXTS-1], dz [0:CONTEXTS-1];
+  reg signed [W-1:0] rtime [0:CONTEXTS-1];
+  reg signed [W-1:0] ix [0:CONTEXTS-1], iy [0:CONTEXTS-1], iz [0:CONTEXTS-1];
+  reg signed [W-1:0] closest [0:CONTEXTS-1];
+  reg [31:0] child0 [0:CONTEXTS-1], child1 [0:CONTEXTS-1];  // the inner node's children: index + 1, left_first
+  reg [31:0] next_primitive [0:CONTEXTS-1], end_primitive [0:CONTEXTS-1];
+  reg [95:0] header0 [0:CONTEXTS-1], header1 [0:CONTEXTS-1];  // tested children as {index, count, left_first}
+  reg first_hit [0:CONTEXTS-1];
+  reg signed [W-1:0] first_entry [0:CONTEXTS-1];
+  reg [6:0] depth [0:CONTEXTS-1];
+  reg [95:0] stack [0:CONTEXTS*DEPTH-1];
+  reg found [0:CONTEXTS-1];
+  reg signed [W-1:0] found_t [0:CONTEXTS-1], found_b1 [0:CONTEXTS-1], found_b2 [0:CONTEXTS-1];
+  reg [31:0] found_primitive [0:CONTEXTS-1];
+  reg [15:0] box_tests [0:CONTEXTS-1], primitive_tests [0:CONTEXTS-1];
+
+  // ---- Picks: the lowest-numbered context ready to issue, free, and done ----
+  reg pick_valid, free_valid, done_valid;
+  reg [CONTEXT_BITS-1:0] pick, free_context, done_context;
+  integer k;
+  always @* begin
+    pick_valid = 0; free_valid = 0; done_valid = 0;
+    pick = 0; free_context = 0; done_context = 0;
+    for (k = CONTEXTS - 1; k >= 0; k = k - 1) begin
+      if (state[k] == ROOT || state[k] == BOX0 || state[k] == BOX1 || state[k] == PRIMITIVE) begin
+        pick_valid = 1; pick = k[CONTEXT_BITS-1:0];
+      end
+      if (state[k] == FREE) begin free_valid = 1; free_context = k[CONTEXT_BITS-1:0]; end
+      if (state[k] == DONE) begin done_valid = 1; done_context = k[CONTEXT_BITS-1:0]; end
+    end
+  end
+  assign ray_ready = free_valid && !reset;
+  wire accept = ray_valid && ray_ready;
+
+  // ---- Stage A -> B: the memory read for the picked context ----
+  reg b_valid;
+  reg [CONTEXT_BITS-1:0] b_context;
+  reg [3:0] b_kind;
+  reg [31:0] b_index;
+  reg [NODE_WIDTH-1:0] node_read;
+  reg [PRIMITIVE_WIDTH-1:0] primitive_read;
+  wire [31:0] pick_node = state[pick] == ROOT ? 32'd0 : state[pick] == BOX0 ? child0[pick] : child1[pick];
+
+  // ---- Units ----
+  // Stage B drives the units from the memory read and the context's ray.
+  wire [CONTEXT_BITS-1:0] c = b_context;
+  wire b_box = b_valid && b_kind != PRIMITIVE;
+  wire [1:0] b_primitive_kind = primitive_read[14*W +: 2];
+  assign box_issue = b_box;
+  assign sphere_issue = b_valid && b_kind == PRIMITIVE && b_primitive_kind == KIND_SPHERE;
+  assign triangle_issue = b_valid && b_kind == PRIMITIVE && b_primitive_kind == KIND_TRIANGLE;
+  assign quad_issue = b_valid && b_kind == PRIMITIVE && b_primitive_kind == KIND_QUAD;
+  function automatic signed [W-1:0] field(input [PRIMITIVE_WIDTH-1:0] record, input integer index);
+    field = record[index*W +: W];
+  endfunction
+  function automatic signed [W-1:0] bound(input [NODE_WIDTH-1:0] record, input integer index);
+    bound = record[index*W +: W];
+  endfunction
+  // A negative reciprocal meets the hi plane first (make_box_ray).
+  wire neg_x = ix[c][W-1], neg_y = iy[c][W-1], neg_z = iz[c][W-1];
+  wire signed [W-1:0] zero = 0;
+
+  wire setup_valid;
+  wire signed [W-1:0] setup_x, setup_y, setup_z;
+  `PT_RAY_SETUP_UNIT ray_setup(.clk(clk), .in_valid(accept), .direction_x(direction_x), .direction_y(direction_y), .direction_z(direction_z),
+                               .out_valid(setup_valid), .inv_x(setup_x), .inv_y(setup_y), .inv_z(setup_z));
+  wire box_valid, box_hit;
+  wire signed [W-1:0] box_entry;
+  `PT_BOX_UNIT box(.clk(clk), .in_valid(b_box), .inv_direction_x(ix[c]), .inv_direction_y(iy[c]), .inv_direction_z(iz[c]),
+                   .origin_term_x(ox[c]), .origin_term_y(oy[c]), .origin_term_z(oz[c]),
+                   .near_bound_x(bound(node_read, neg_x ? 3 : 0)), .near_bound_y(bound(node_read, neg_y ? 4 : 1)),
+                   .near_bound_z(bound(node_read, neg_z ? 5 : 2)), .far_bound_x(bound(node_read, neg_x ? 0 : 3)),
+                   .far_bound_y(bound(node_read, neg_y ? 1 : 4)), .far_bound_z(bound(node_read, neg_z ? 2 : 5)),
+                   .t_min(zero), .t_max(closest[c]), .out_valid(box_valid), .hit(box_hit), .t_entry(box_entry));
+  wire sphere_valid, sphere_hit;
+  wire signed [W-1:0] sphere_t, sphere_b1, sphere_b2;
+  `PT_SPHERE_UNIT sphere(.clk(clk), .in_valid(sphere_issue), .center0_x(field(primitive_read, 0)), .center0_y(field(primitive_read, 1)),
+                         .center0_z(field(primitive_read, 2)), .radius(field(primitive_read, 3)), .velocity_x(field(primitive_read, 4)),
+                         .velocity_y(field(primitive_read, 5)), .velocity_z(field(primitive_read, 6)), .time0(field(primitive_read, 7)),
+                         .ray_time(rtime[c]), .origin_x(ox[c]), .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]), .direction_y(dy[c]),
+                         .direction_z(dz[c]), .t_min(zero), .t_max(closest[c]), .out_valid(sphere_valid), .hit(sphere_hit), .t(sphere_t),
+                         .b1(sphere_b1), .b2(sphere_b2));
+  wire triangle_valid, triangle_hit;
+  wire signed [W-1:0] triangle_t, triangle_b1, triangle_b2;
+  `PT_TRIANGLE_UNIT triangle(.clk(clk), .in_valid(triangle_issue), .p0_x(field(primitive_read, 0)), .p0_y(field(primitive_read, 1)),
+                             .p0_z(field(primitive_read, 2)), .edge1_x(field(primitive_read, 3)), .edge1_y(field(primitive_read, 4)),
+                             .edge1_z(field(primitive_read, 5)), .edge2_x(field(primitive_read, 6)), .edge2_y(field(primitive_read, 7)),
+                             .edge2_z(field(primitive_read, 8)), .origin_x(ox[c]), .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]),
+                             .direction_y(dy[c]), .direction_z(dz[c]), .t_min(zero), .t_max(closest[c]), .out_valid(triangle_valid),
+                             .hit(triangle_hit), .t(triangle_t), .b1(triangle_b1), .b2(triangle_b2));
+  wire quad_valid, quad_hit;
+  wire signed [W-1:0] quad_t, quad_b1, quad_b2;
+  `PT_QUAD_UNIT quad(.clk(clk), .in_valid(quad_issue), .corner_x(field(primitive_read, 0)), .corner_y(field(primitive_read, 1)),
+                     .corner_z(field(primitive_read, 2)), .normal_x(field(primitive_read, 3)), .normal_y(field(primitive_read, 4)),
+                     .normal_z(field(primitive_read, 5)), .du_x(field(primitive_read, 6)), .du_y(field(primitive_read, 7)),
+                     .du_z(field(primitive_read, 8)), .dv_x(field(primitive_read, 9)), .dv_y(field(primitive_read, 10)),
+                     .dv_z(field(primitive_read, 11)), .u_extent(field(primitive_read, 12)), .v_extent(field(primitive_read, 13)),
+                     .origin_x(ox[c]), .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]), .direction_y(dy[c]), .direction_z(dz[c]),
+                     .t_min(zero), .t_max(closest[c]), .out_valid(quad_valid), .hit(quad_hit), .t(quad_t), .b1(quad_b1), .b2(quad_b2));
+
+  // ---- Tag FIFOs: which context (and for boxes which child) each result in a unit's pipeline belongs to ----
+  reg [CONTEXT_BITS+1:0] setup_tags [0:(1 << FIFO_BITS) - 1], box_tags [0:(1 << FIFO_BITS) - 1];
+  reg [CONTEXT_BITS+1:0] sphere_tags [0:(1 << FIFO_BITS) - 1], triangle_tags [0:(1 << FIFO_BITS) - 1], quad_tags [0:(1 << FIFO_BITS) - 1];
+  reg [FIFO_BITS-1:0] setup_in, setup_out, box_in, box_out, sphere_in, sphere_out, triangle_in, triangle_out, quad_in, quad_out;
+  wire [CONTEXT_BITS-1:0] setup_context = setup_tags[setup_out][CONTEXT_BITS-1:0];
+  wire [CONTEXT_BITS-1:0] box_context = box_tags[box_out][CONTEXT_BITS-1:0];
+  wire [1:0] box_which = box_tags[box_out][CONTEXT_BITS +: 2];
+  wire [CONTEXT_BITS-1:0] sphere_context = sphere_tags[sphere_out][CONTEXT_BITS-1:0];
+  wire [CONTEXT_BITS-1:0] triangle_context = triangle_tags[triangle_out][CONTEXT_BITS-1:0];
+  wire [CONTEXT_BITS-1:0] quad_context = quad_tags[quad_out][CONTEXT_BITS-1:0];
+
+  // Going to a node whose header is known: a leaf's primitives, or an inner node's two children's boxes.
+  task automatic enter(input [CONTEXT_BITS-1:0] x, input [95:0] header);
+    if (header[63:32] != 0) begin
+      next_primitive[x] <= header[31:0];
+      end_primitive[x] <= header[31:0] + header[63:32];
+      state[x] <= PRIMITIVE;
+    end else begin
+      child0[x] <= header[95:64] + 1;
+      child1[x] <= header[31:0];
+      state[x] <= BOX0;
+    end
+  endtask
+  // The walk goes on from the stack, or ends.
+  task automatic pop(input [CONTEXT_BITS-1:0] x);
+    if (depth[x] == 0) begin
+      state[x] <= DONE;
+    end else begin
+      depth[x] <= depth[x] - 1;
+      enter(x, stack[{x, 6'd0} + {{CONTEXT_BITS{1'b0}}, depth[x][5:0]} - 1]);
+    end
+  endtask
+  // A primitive's result: the closest hit narrows where it was hit, then the leaf's next primitive or the stack.
+  task automatic primitive_done(input [CONTEXT_BITS-1:0] x, input hit, input signed [W-1:0] t, input signed [W-1:0] b1,
+                                input signed [W-1:0] b2);
+    if (hit) begin
+      closest[x] <= t;
+      found[x] <= 1;
+      found_t[x] <= t;
+      found_b1[x] <= b1;
+      found_b2[x] <= b2;
+      found_primitive[x] <= next_primitive[x];
+    end
+    if (next_primitive[x] + 1 != end_primitive[x]) begin
+      next_primitive[x] <= next_primitive[x] + 1;
+      state[x] <= PRIMITIVE;
+    end else begin
+      pop(x);
+    end
+  endtask
+
+  reg [95:0] near_header, far_header;
+  always @(posedge clk) begin
+    if (reset) begin
+      for (k = 0; k < CONTEXTS; k = k + 1) state[k] <= FREE;
+      b_valid <= 0;
+      hit_valid <= 0;
+      setup_in <= 0; setup_out <= 0; box_in <= 0; box_out <= 0; sphere_in <= 0; sphere_out <= 0;
+      triangle_in <= 0; triangle_out <= 0; quad_in <= 0; quad_out <= 0;
+    end else begin
+      if (node_write) nodes[node_address] <= node_data;
+      if (primitive_write) primitives[primitive_address] <= primitive_data;
+
+      // A new ray: its context, and its reciprocal direction into the setup unit.
+      if (accept) begin
+        state[free_context] <= SETUP;
+        id[free_context] <= ray_id;
+        ox[free_context] <= origin_x; oy[free_context] <= origin_y; oz[free_context] <= origin_z;
+        dx[free_context] <= direction_x; dy[free_context] <= direction_y; dz[free_context] <= direction_z;
+        rtime[free_context] <= ray_time;
+        closest[free_context] <= t_max;
+        depth[free_context] <= 0;
+        found[free_context] <= 0;
+        box_tests[free_context] <= 0;
+        primitive_tests[free_context] <= 0;
+        setup_tags[setup_in] <= {2'b0, free_context};
+        setup_in <= setup_in + 1;
+      end
+      if (setup_valid) begin
+        ix[setup_context] <= setup_x; iy[setup_context] <= setup_y; iz[setup_context] <= setup_z;
+        state[setup_context] <= ROOT;
+        setup_out <= setup_out + 1;
+      end
+
+      // Stage A: the picked context's node or primitive read.
+      b_valid <= pick_valid;
+      if (pick_valid) begin
+        b_context <= pick;
+        b_kind <= state[pick];
+        b_index <= pick_node;
+        node_read <= nodes[pick_node[NODE_BITS-1:0]];
+        primitive_read <= primitives[next_primitive[pick][PRIMITIVE_BITS-1:0]];
+        state[pick] <= ISSUING;
+      end
+
+      // Stage B: the test goes into its unit (the unit's inputs are wired above); the context waits for it.
+      if (b_valid) begin
+        if (b_kind == PRIMITIVE) begin
+          primitive_tests[c] <= primitive_tests[c] + 1;
+          state[c] <= WAITING;
+          if (sphere_issue) begin sphere_tags[sphere_in] <= {2'b0, c}; sphere_in <= sphere_in + 1; end
+          if (triangle_issue) begin triangle_tags[triangle_in] <= {2'b0, c}; triangle_in <= triangle_in + 1; end
+          if (quad_issue) begin quad_tags[quad_in] <= {2'b0, c}; quad_in <= quad_in + 1; end
+        end else begin
+          box_tests[c] <= box_tests[c] + 1;
+          box_tags[box_in] <= {b_kind == BOX1 ? WHICH_SECOND : b_kind == BOX0 ? WHICH_FIRST : WHICH_ROOT, c};
+          box_in <= box_in + 1;
+          if (b_kind == BOX1) header1[c] <= {b_index, node_read[6*W+32 +: 32], node_read[6*W +: 32]};
+          else header0[c] <= {b_index, node_read[6*W+32 +: 32], node_read[6*W +: 32]};
+          state[c] <= b_kind == BOX0 ? BOX1 : WAITING;
+        end
+      end
+
+      // Box results: the root's decides whether the walk starts; an inner node's second decides where it goes.
+      if (box_valid) begin
+        box_out <= box_out + 1;
+        if (box_which == WHICH_ROOT) begin
+          if (box_hit) enter(box_context, header0[box_context]);
+          else state[box_context] <= DONE;
+        end else if (box_which == WHICH_FIRST) begin
+          first_hit[box_context] <= box_hit;
+          first_entry[box_context] <= box_entry;
+        end else if (first_hit[box_context] && box_hit) begin
+          // The nearer child next, the other pushed; the first where the entries are equal (walk_binary).
+          if (box_entry < first_entry[box_context]) begin
+            near_header = header1[box_context]; far_header = header0[box_context];
+          end else begin
+            near_header = header0[box_context]; far_header = header1[box_context];
+          end
+          stack[{box_context, 6'd0} + {{CONTEXT_BITS{1'b0}}, depth[box_context][5:0]}] <= far_header;
+          depth[box_context] <= depth[box_context] + 1;
+          enter(box_context, near_header);
+        end else if (first_hit[box_context]) begin
+          enter(box_context, header0[box_context]);
+        end else if (box_hit) begin
+          enter(box_context, header1[box_context]);
+        end else begin
+          pop(box_context);
+        end
+      end
+
+      if (sphere_valid) begin
+        sphere_out <= sphere_out + 1;
+        primitive_done(sphere_context, sphere_hit, sphere_t, sphere_b1, sphere_b2);
+      end
+      if (triangle_valid) begin
+        triangle_out <= triangle_out + 1;
+        primitive_done(triangle_context, triangle_hit, triangle_t, triangle_b1, triangle_b2);
+      end
+      if (quad_valid) begin
+        quad_out <= quad_out + 1;
+        primitive_done(quad_context, quad_hit, quad_t, quad_b1, quad_b2);
+      end
+
+      // A finished ray leaves, and its context is free.
+      hit_valid <= done_valid;
+      if (done_valid) begin
+        hit_id <= id[done_context];
+        hit_found <= found[done_context];
+        hit_t <= found_t[done_context];
+        hit_b1 <= found_b1[done_context];
+        hit_b2 <= found_b2[done_context];
+        hit_primitive <= found_primitive[done_context];
+        hit_box_tests <= box_tests[done_context];
+        hit_primitive_tests <= primitive_tests[done_context];
+        state[done_context] <= FREE;
+      end
+    end
+  end
+endmodule
+`default_nettype wire
