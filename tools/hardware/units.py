@@ -192,6 +192,21 @@ def moving_sphere_unit(u: Unit) -> None:
     sphere_test(u, center, radius)
 
 
+def instance_ray_unit(u: Unit) -> None:
+    """instance_ray (src/kernel/bvh.hpp): a world ray taken into a mesh instance's space by AffineRows::point and
+    ::vector (src/kernel/shapes.hpp), each component a dot product of a row with the vector, the translation added to
+    the origin's. An instance without a transform is this unit's with the identity: 1 * x rounds to x and 0 * y is 0,
+    exactly, so the traversal engine sends every instance through it."""
+    rows = [vec_input(u, f"row{k}") for k in range(3)]
+    translation = vec_input(u, "translation")
+    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
+    moved_origin = u.vadd(tuple(u.dot(row, origin) for row in rows), translation)
+    moved_direction = tuple(u.dot(row, direction) for row in rows)
+    for axis, o, d in zip("xyz", moved_origin, moved_direction):
+        u.output(f"local_origin_{axis}", o)
+        u.output(f"local_direction_{axis}", d)
+
+
 def ray_setup_unit(u: Unit) -> None:
     """slab_reciprocals (src/kernel/bvh.hpp) with ScalarTraits<Fixed>::slab_reciprocal: 1 / d per axis, truncated,
     the largest value where d is 0, which is Fixed's operator/ on 1 and d. The traversal engine's ray entry."""
@@ -202,7 +217,7 @@ def ray_setup_unit(u: Unit) -> None:
 
 
 UNITS = {"box": box_unit, "triangle": triangle_unit, "quad": quad_unit, "sphere": sphere_unit,
-         "moving_sphere": moving_sphere_unit, "ray_setup": ray_setup_unit}
+         "moving_sphere": moving_sphere_unit, "ray_setup": ray_setup_unit, "instance_ray": instance_ray_unit}
 
 
 def build(name: str, integer_bits: int, fraction_bits: int, **options) -> Unit:
@@ -246,7 +261,7 @@ def ports_header(u: Unit, model_class: str = "") -> str:
 
 # The units the traversal engine (src/backends/rtl/traversal_engine.v) instantiates, by the macro it names each with.
 ENGINE_UNITS = {"PT_RAY_SETUP_UNIT": "ray_setup", "PT_BOX_UNIT": "box", "PT_SPHERE_UNIT": "moving_sphere",
-                "PT_TRIANGLE_UNIT": "triangle", "PT_QUAD_UNIT": "quad"}
+                "PT_TRIANGLE_UNIT": "triangle", "PT_QUAD_UNIT": "quad", "PT_INSTANCE_RAY_UNIT": "instance_ray"}
 
 
 def engine_units(integer_bits: int, fraction_bits: int, **options) -> str:

@@ -29,7 +29,7 @@ struct EngineTally {
 
 struct EngineCounters {
   u64 clocks = 0;  // clocks the engine ran while rays were in it
-  u64 box_issues = 0, sphere_issues = 0, triangle_issues = 0, quad_issues = 0;
+  u64 box_issues = 0, sphere_issues = 0, triangle_issues = 0, quad_issues = 0, instance_issues = 0;
   EngineTally primary, bounce, shadow;
 };
 
@@ -44,6 +44,7 @@ struct EngineQuery {
 struct EngineAnswer {
   bool found;
   u32 primitive;
+  u32 triangle;  // a mesh triangle's index in MeshData::triangles, else 0
   std::int64_t t, b1, b2;  // raw fixed-point values
 };
 
@@ -97,52 +98,60 @@ class RtlDevice {
       cpu_.launch(what, count, kernel);
   }
 
-  // Loads the scene's binary tree and primitives into the engine's memory; a scene it cannot hold is refused.
+  // Loads the scene's binary tree and primitives into the engine's memory, the meshes' trees and triangles after them
+  // (traversal_engine.v); a scene it cannot hold is refused.
   void take_scene(const SceneView<T>& scene) {
-    u32 node_count = 0, primitive_count = 0;
-    std::vector<u32> pending{0};
-    while (!pending.empty()) {  // the nodes reachable from the root, and the primitives their leaves hold
-      const u32 index = pending.back();
-      pending.pop_back();
-      node_count = std::max(node_count, index + 1);
-      const BvhNode<T>& node = scene.nodes[index];
-      if (node.count > 0) {
-        primitive_count = std::max(primitive_count, node.left_first + node.count);
-      } else {
-        pending.push_back(index + 1);
-        pending.push_back(node.left_first);
+    const Extent own = extent(scene.nodes, 0);
+    std::vector<u32> placed;  // each placed mesh, once
+    for (u32 i = 0; i < own.primitives; ++i) {
+      const Shape<T>& shape = scene.primitives[i].shape;
+      if (std::holds_alternative<ConstantMedium<T>>(shape))
+        throw BackendError(fmt::format("the scene has a constant medium (primitive {}), which the traversal engine does not hold yet", i));
+      if (const auto* instance = std::get_if<MeshInstance<T>>(&shape)) placed.push_back(instance->mesh);
+    }
+    std::sort(placed.begin(), placed.end());
+    placed.erase(std::unique(placed.begin(), placed.end()), placed.end());
+    Extent meshes{};
+    for (u32 m : placed) {
+      const Extent mesh = extent(scene.meshes.nodes, scene.meshes.meshes[m].root);
+      meshes.nodes = std::max(meshes.nodes, mesh.nodes);
+      meshes.primitives = std::max(meshes.primitives, mesh.primitives);
+    }
+    node_base_ = own.nodes;
+    triangle_base_ = own.primitives;
+    const u64 nodes = u64{own.nodes} + meshes.nodes, primitives = u64{own.primitives} + meshes.primitives;
+    if (nodes > (1u << kNodeBits) || primitives > (1u << kPrimitiveBits))
+      throw BackendError(fmt::format("the scene has {} BVH nodes and {} primitives and mesh triangles; the traversal engine holds {} of each", nodes,
+                                     primitives, 1u << kNodeBits));
+    for (u32 i = 0; i < own.nodes; ++i) load_node(i, scene.nodes[i], 0, 0);
+    for (u32 i = 0; i < meshes.nodes; ++i) load_node(node_base_ + i, scene.meshes.nodes[i], node_base_, triangle_base_);
+    for (u32 i = 0; i < own.primitives; ++i) {
+      std::array<T, 14> fields{};
+      u32 kind = std::visit(PrimitiveFields{fields}, scene.primitives[i].shape);
+      if (const auto* instance = std::get_if<MeshInstance<T>>(&scene.primitives[i].shape)) {
+        kind = 3;
+        // The world-to-mesh rows and translation (the identity where the mesh is in world space already: the unit
+        // then gives the ray back exactly), and the mesh's root in node memory.
+        AffineRows<T> rows{{{T(1), T(0), T(0)}, {T(0), T(1), T(0)}, {T(0), T(0), T(1)}}, {T(0), T(0), T(0)}};
+        if (instance->transform != kNoTransform) rows = scene.meshes.transforms[instance->transform].to_mesh;
+        for (u32 r = 0; r < 3; ++r) PrimitiveFields{fields}.set(3 * r, rows.row[r]);
+        PrimitiveFields{fields}.set(9, rows.translation);
+        fields[12] = T::from_raw(static_cast<typename T::Storage>(node_base_ + scene.meshes.meshes[instance->mesh].root));
+      }
+      load_primitive(i, kind, fields);
+    }
+    // A mesh's triangles as the scene's are stored: p0 and the two edges from it (the subtraction MeshLeaf makes).
+    for (u32 m : placed) {
+      const MeshRecord& record = scene.meshes.meshes[m];
+      for (u32 i = record.first_triangle; i < record.first_triangle + record.triangle_count; ++i) {
+        const MeshTriangle& tri = scene.meshes.triangles[i];
+        const Vec3<T>& p0 = scene.meshes.positions[record.first_vertex + tri.vertex[0]];
+        std::array<T, 14> fields{};
+        PrimitiveFields{fields}(Triangle<T>{p0, scene.meshes.positions[record.first_vertex + tri.vertex[1]] - p0,
+                                            scene.meshes.positions[record.first_vertex + tri.vertex[2]] - p0, -1});
+        load_primitive(triangle_base_ + i, 1, fields);
       }
     }
-    if (node_count > (1u << kNodeBits) || primitive_count > (1u << kPrimitiveBits))
-      throw BackendError(fmt::format("the scene has {} BVH nodes and {} primitives; the traversal engine holds {} of each", node_count,
-                                     primitive_count, 1u << kNodeBits));
-    for (u32 i = 0; i < primitive_count; ++i) {
-      const char* refused = std::visit(RefusedShape{}, scene.primitives[i].shape);
-      if (refused) throw BackendError(fmt::format("the scene has {} (primitive {}), which the traversal engine does not hold yet", refused, i));
-    }
-    for (u32 i = 0; i < node_count; ++i) {
-      const BvhNode<T>& node = scene.nodes[i];
-      clear_words(model_->node_data);
-      const T bounds[6] = {node.lo.x, node.lo.y, node.lo.z, node.hi.x, node.hi.y, node.hi.z};
-      for (u32 b = 0; b < 6; ++b) put(model_->node_data, b * kWordBits, kWordBits, raw(bounds[b]));
-      put(model_->node_data, 6 * kWordBits, 32, node.left_first);
-      put(model_->node_data, 6 * kWordBits + 32, 32, node.count);
-      model_->node_write = 1;
-      model_->node_address = i;
-      tick();
-    }
-    model_->node_write = 0;
-    for (u32 i = 0; i < primitive_count; ++i) {
-      clear_words(model_->primitive_data);
-      std::array<T, 14> fields{};
-      const u32 kind = std::visit(PrimitiveFields{fields}, scene.primitives[i].shape);
-      for (u32 f = 0; f < fields.size(); ++f) put(model_->primitive_data, f * kWordBits, kWordBits, raw(fields[f]));
-      put(model_->primitive_data, 14 * kWordBits, 2, kind);
-      model_->primitive_write = 1;
-      model_->primitive_address = i;
-      tick();
-    }
-    model_->primitive_write = 0;
   }
 
   // What the engine did since the device was made, as lines for the render's summary.
@@ -150,9 +159,9 @@ class RtlDevice {
     const EngineCounters& c = counters_;
     const u64 rays = c.primary.rays + c.bounce.rays + c.shadow.rays;
     std::vector<std::string> lines{fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box {:.1f}%, sphere {:.1f}%, "
-                                               "triangle {:.1f}%, quad {:.1f}%",
+                                               "triangle {:.1f}%, quad {:.1f}%, instance {:.1f}%",
                                                rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues), share(c.sphere_issues),
-                                               share(c.triangle_issues), share(c.quad_issues))};
+                                               share(c.triangle_issues), share(c.quad_issues), share(c.instance_issues))};
     for (const auto& [name, tally] : {std::pair{"primary", &c.primary}, std::pair{"bounce", &c.bounce}, std::pair{"shadow", &c.shadow}}) {
       const double n = std::max<double>(1, tally->rays);
       lines.push_back(fmt::format("  {} rays: {}, {:.1f} clocks each in the engine, {:.1f} box and {:.1f} primitive tests each", name, tally->rays,
@@ -164,6 +173,48 @@ class RtlDevice {
   const EngineCounters& counters() const { return counters_; }
 
  private:
+  // Nodes reachable from a root, and the primitives (or triangles) past the last its leaves hold.
+  struct Extent {
+    u32 nodes = 0, primitives = 0;
+  };
+  static Extent extent(const BvhNode<T>* tree, u32 root) {
+    Extent e;
+    std::vector<u32> pending{root};
+    while (!pending.empty()) {
+      const u32 index = pending.back();
+      pending.pop_back();
+      e.nodes = std::max(e.nodes, index + 1);
+      const BvhNode<T>& node = tree[index];
+      if (node.count > 0) {
+        e.primitives = std::max(e.primitives, node.left_first + node.count);
+      } else {
+        pending.push_back(index + 1);
+        pending.push_back(node.left_first);
+      }
+    }
+    return e;
+  }
+  void load_node(u32 address, const BvhNode<T>& node, u32 node_offset, u32 primitive_offset) {
+    clear_words(model_->node_data);
+    const T bounds[6] = {node.lo.x, node.lo.y, node.lo.z, node.hi.x, node.hi.y, node.hi.z};
+    for (u32 b = 0; b < 6; ++b) put(model_->node_data, b * kWordBits, kWordBits, raw(bounds[b]));
+    put(model_->node_data, 6 * kWordBits, 32, node.left_first + (node.count > 0 ? primitive_offset : node_offset));
+    put(model_->node_data, 6 * kWordBits + 32, 32, node.count);
+    model_->node_write = 1;
+    model_->node_address = address;
+    tick();
+    model_->node_write = 0;
+  }
+  void load_primitive(u32 address, u32 kind, const std::array<T, 14>& fields) {
+    clear_words(model_->primitive_data);
+    for (u32 f = 0; f < fields.size(); ++f) put(model_->primitive_data, f * kWordBits, kWordBits, raw(fields[f]));
+    put(model_->primitive_data, 14 * kWordBits, 2, kind);
+    model_->primitive_write = 1;
+    model_->primitive_address = address;
+    tick();
+    model_->primitive_write = 0;
+  }
+
   // The engine's kind of each primitive (traversal_engine.v), its 14 fields; spheres go as moving spheres that stand.
   struct PrimitiveFields {
     std::array<T, 14>& f;
@@ -204,15 +255,6 @@ class RtlDevice {
       f[at + 2] = v.z;
     }
   };
-  struct RefusedShape {
-    const char* operator()(const ConstantMedium<T>&) const { return "a constant medium"; }
-    const char* operator()(const MeshInstance<T>&) const { return "a mesh instance"; }
-    template <class Other>
-    const char* operator()(const Other&) const {
-      return nullptr;
-    }
-  };
-
   static u64 raw(T value) { return static_cast<u64>(static_cast<std::int64_t>(value.raw)); }
   static T from_word(u32 word) {
     const std::int64_t value = static_cast<std::int64_t>(static_cast<u64>(word) << (64 - kWordBits)) >> (64 - kWordBits);
@@ -264,7 +306,7 @@ class RtlDevice {
         hit.b1 = T::from_raw(static_cast<typename T::Storage>(a.b1));
         hit.b2 = T::from_raw(static_cast<typename T::Storage>(a.b2));
         hit.primitive = a.primitive;
-        hit.triangle = 0;
+        hit.triangle = a.triangle;
       }
       if (i < paths)
         wavefront_queue_hit(w, scene, i, a.found, hit);
@@ -300,13 +342,15 @@ class RtlDevice {
       counters_.sphere_issues += m.sphere_issue;
       counters_.triangle_issues += m.triangle_issue;
       counters_.quad_issues += m.quad_issue;
+      counters_.instance_issues += m.instance_issue;
       m.clk = 1;
       m.eval();
       ++counters_.clocks;
       if (accepted) entered_[next++] = counters_.clocks;
       if (m.hit_valid) {
         const u32 id = m.hit_id;
-        answers_[id] = EngineAnswer{m.hit_found != 0, m.hit_primitive, from_word(m.hit_t).raw, from_word(m.hit_b1).raw, from_word(m.hit_b2).raw};
+        answers_[id] = EngineAnswer{m.hit_found != 0, m.hit_primitive, m.hit_in_mesh ? m.hit_triangle - triangle_base_ : 0u, from_word(m.hit_t).raw,
+                                    from_word(m.hit_b1).raw, from_word(m.hit_b2).raw};
         EngineTally& tally = *queries[id].tally;
         ++tally.rays;
         tally.latency_clocks += counters_.clocks - entered_[id];
@@ -320,6 +364,7 @@ class RtlDevice {
 
   CpuDevice cpu_;
   std::unique_ptr<Model> model_;
+  u32 node_base_ = 0, triangle_base_ = 0;  // where the meshes' nodes and triangles begin in the engine's memories
   EngineCounters counters_;
   std::vector<EngineQuery<T>> queries_;
   std::vector<EngineAnswer> answers_;

@@ -12,10 +12,17 @@
 // hits at equal distances resolve as in the kernel. The many contexts keep the pipelines busy meanwhile, in the
 // manner of the multithreaded ray processors (Woop, Schmittler and Slusallek 2005; TRaX).
 //
-// Scene memory: nodes as {count, left_first, hi.z, hi.y, hi.x, lo.z, lo.y, lo.x} (BvhNode), primitives as
-// {kind, 14 fields} (kind 0: a sphere as a moving one, fields center0, radius, velocity, time0; 1: a triangle, p0,
-// edge1, edge2; 2: a quad, corner, normal, du, dv, u_extent, v_extent), written through the load ports before rays
-// are sent. Left out: mesh instances and constant media (the host refuses scenes that have them).
+// A mesh instance (intersect_instance) takes the ray into the mesh's space (the instance-ray unit), gives it its own
+// reciprocal (the setup unit, shared with entering rays, which wait meanwhile), and walks the mesh's tree from its
+// root on the same stack, above the scene's entries; when the stack is back down to where the instance began, the
+// scene's leaf goes on with its next primitive. A triangle hit there names the instance and the mesh's triangle.
+//
+// Scene memory: nodes as {count, left_first, hi.z, hi.y, hi.x, lo.z, lo.y, lo.x} (BvhNode), the scene's and after
+// them the meshes' (their left_first moved to where they are); primitives as {kind, 14 fields} (kind 0: a sphere as
+// a moving one, fields center0, radius, velocity, time0; 1: a triangle, p0, edge1, edge2; 2: a quad, corner, normal,
+// du, dv, u_extent, v_extent; 3: a mesh instance, its world-to-mesh rows and translation and its mesh's root node),
+// the scene's and after them the meshes' triangles. Written through the load ports before rays are sent. Left out:
+// constant media (the host refuses scenes that have them).
 `default_nettype none
 module traversal_engine #(
   parameter W = `PT_ENGINE_WORD,      // bits of a fixed-point value
@@ -47,20 +54,24 @@ module traversal_engine #(
   output reg hit_found,
   output reg signed [W-1:0] hit_t, hit_b1, hit_b2,
   output reg [31:0] hit_primitive,
+  output reg hit_in_mesh,             // hit_triangle names the mesh triangle's place in primitive memory
+  output reg [31:0] hit_triangle,
   output reg [15:0] hit_box_tests,
   output reg [15:0] hit_primitive_tests,
   // Which units take a test this clock (for utilisation).
   output wire box_issue,
   output wire sphere_issue,
   output wire triangle_issue,
-  output wire quad_issue
+  output wire quad_issue,
+  output wire instance_issue
 );
   localparam CONTEXTS = 1 << CONTEXT_BITS;
-  localparam DEPTH = 64;  // kBvhMaxDepth
+  localparam DEPTH = 128;  // kBvhMaxDepth for the scene's walk and as much for a mesh's above it
   localparam FIFO_BITS = 7;  // tags in flight per unit: more than the deepest unit's latency
-  localparam [3:0] FREE = 0, SETUP = 1, ROOT = 2, BOX0 = 3, BOX1 = 4, PRIMITIVE = 5, ISSUING = 6, WAITING = 7, DONE = 8;
+  localparam [3:0] FREE = 0, SETUP = 1, ROOT = 2, BOX0 = 3, BOX1 = 4, PRIMITIVE = 5, ISSUING = 6, WAITING = 7, DONE = 8,
+                   MESH_ROOT = 9, MESH_PRIMITIVE = 10;
   localparam [1:0] WHICH_FIRST = 0, WHICH_SECOND = 1, WHICH_ROOT = 2;
-  localparam [1:0] KIND_SPHERE = 0, KIND_TRIANGLE = 1, KIND_QUAD = 2;
+  localparam [1:0] KIND_SPHERE = 0, KIND_TRIANGLE = 1, KIND_QUAD = 2, KIND_INSTANCE = 3;
 
   reg [NODE_WIDTH-1:0] nodes [0:(1 << NODE_BITS) - 1];
   reg [PRIMITIVE_WIDTH-1:0] primitives [0:(1 << PRIMITIVE_BITS) - 1];
@@ -78,7 +89,18 @@ module traversal_engine #(
   reg [95:0] header0 [0:CONTEXTS-1], header1 [0:CONTEXTS-1];  // tested children as {index, count, left_first}
   reg first_hit [0:CONTEXTS-1];
   reg signed [W-1:0] first_entry [0:CONTEXTS-1];
-  reg [6:0] depth [0:CONTEXTS-1];
+  reg [7:0] depth [0:CONTEXTS-1];
+  // In a mesh instance: the ray in the mesh's space, the instance, the mesh's root, the depth its walk began at,
+  // and the mesh leaf's triangles.
+  reg in_mesh [0:CONTEXTS-1];
+  reg signed [W-1:0] lx [0:CONTEXTS-1], ly [0:CONTEXTS-1], lz [0:CONTEXTS-1];
+  reg signed [W-1:0] ldx [0:CONTEXTS-1], ldy [0:CONTEXTS-1], ldz [0:CONTEXTS-1];
+  reg signed [W-1:0] lix [0:CONTEXTS-1], liy [0:CONTEXTS-1], liz [0:CONTEXTS-1];
+  reg [31:0] mesh_root [0:CONTEXTS-1];
+  reg [7:0] mesh_base [0:CONTEXTS-1];
+  reg [31:0] next_triangle [0:CONTEXTS-1], end_triangle [0:CONTEXTS-1];
+  reg found_in_mesh [0:CONTEXTS-1];
+  reg [31:0] found_triangle [0:CONTEXTS-1];
   reg [95:0] stack [0:CONTEXTS*DEPTH-1];
   reg found [0:CONTEXTS-1];
   reg signed [W-1:0] found_t [0:CONTEXTS-1], found_b1 [0:CONTEXTS-1], found_b2 [0:CONTEXTS-1];
@@ -93,14 +115,17 @@ module traversal_engine #(
     pick_valid = 0; free_valid = 0; done_valid = 0;
     pick = 0; free_context = 0; done_context = 0;
     for (k = CONTEXTS - 1; k >= 0; k = k - 1) begin
-      if (state[k] == ROOT || state[k] == BOX0 || state[k] == BOX1 || state[k] == PRIMITIVE) begin
+      if (state[k] == ROOT || state[k] == BOX0 || state[k] == BOX1 || state[k] == PRIMITIVE || state[k] == MESH_ROOT ||
+          state[k] == MESH_PRIMITIVE) begin
         pick_valid = 1; pick = k[CONTEXT_BITS-1:0];
       end
       if (state[k] == FREE) begin free_valid = 1; free_context = k[CONTEXT_BITS-1:0]; end
       if (state[k] == DONE) begin done_valid = 1; done_context = k[CONTEXT_BITS-1:0]; end
     end
   end
-  assign ray_ready = free_valid && !reset;
+  // The setup unit takes a ray into an instance before a new ray.
+  wire instance_valid;
+  assign ray_ready = free_valid && !reset && !instance_valid;
   wire accept = ray_valid && ray_ready;
 
   // ---- Stage A -> B: the memory read for the picked context ----
@@ -110,35 +135,53 @@ module traversal_engine #(
   reg [31:0] b_index;
   reg [NODE_WIDTH-1:0] node_read;
   reg [PRIMITIVE_WIDTH-1:0] primitive_read;
-  wire [31:0] pick_node = state[pick] == ROOT ? 32'd0 : state[pick] == BOX0 ? child0[pick] : child1[pick];
+  wire [31:0] pick_node = state[pick] == ROOT ? 32'd0 : state[pick] == MESH_ROOT ? mesh_root[pick] : state[pick] == BOX0 ? child0[pick] : child1[pick];
+  wire [31:0] pick_primitive = state[pick] == MESH_PRIMITIVE ? next_triangle[pick] : next_primitive[pick];
 
   // ---- Units ----
   // Stage B drives the units from the memory read and the context's ray.
   wire [CONTEXT_BITS-1:0] c = b_context;
-  wire b_box = b_valid && b_kind != PRIMITIVE;
-  wire [1:0] b_primitive_kind = primitive_read[14*W +: 2];
+  wire b_primitive = b_valid && (b_kind == PRIMITIVE || b_kind == MESH_PRIMITIVE);
+  wire b_box = b_valid && !b_primitive;
+  // A mesh leaf holds triangles only.
+  wire [1:0] b_primitive_kind = b_kind == MESH_PRIMITIVE ? KIND_TRIANGLE : primitive_read[14*W +: 2];
   assign box_issue = b_box;
-  assign sphere_issue = b_valid && b_kind == PRIMITIVE && b_primitive_kind == KIND_SPHERE;
-  assign triangle_issue = b_valid && b_kind == PRIMITIVE && b_primitive_kind == KIND_TRIANGLE;
-  assign quad_issue = b_valid && b_kind == PRIMITIVE && b_primitive_kind == KIND_QUAD;
+  assign sphere_issue = b_primitive && b_primitive_kind == KIND_SPHERE;
+  assign triangle_issue = b_primitive && b_primitive_kind == KIND_TRIANGLE;
+  assign quad_issue = b_primitive && b_primitive_kind == KIND_QUAD;
+  assign instance_issue = b_primitive && b_primitive_kind == KIND_INSTANCE;
   function automatic signed [W-1:0] field(input [PRIMITIVE_WIDTH-1:0] record, input integer index);
     field = record[index*W +: W];
   endfunction
   function automatic signed [W-1:0] bound(input [NODE_WIDTH-1:0] record, input integer index);
     bound = record[index*W +: W];
   endfunction
+  // The ray the context walks with: the world's, or in a mesh instance the mesh space's.
+  wire signed [W-1:0] ray_ox = in_mesh[c] ? lx[c] : ox[c], ray_oy = in_mesh[c] ? ly[c] : oy[c], ray_oz = in_mesh[c] ? lz[c] : oz[c];
+  wire signed [W-1:0] ray_dx = in_mesh[c] ? ldx[c] : dx[c], ray_dy = in_mesh[c] ? ldy[c] : dy[c], ray_dz = in_mesh[c] ? ldz[c] : dz[c];
+  wire signed [W-1:0] ray_ix = in_mesh[c] ? lix[c] : ix[c], ray_iy = in_mesh[c] ? liy[c] : iy[c], ray_iz = in_mesh[c] ? liz[c] : iz[c];
   // A negative reciprocal meets the hi plane first (make_box_ray).
-  wire neg_x = ix[c][W-1], neg_y = iy[c][W-1], neg_z = iz[c][W-1];
+  wire neg_x = ray_ix[W-1], neg_y = ray_iy[W-1], neg_z = ray_iz[W-1];
   wire signed [W-1:0] zero = 0;
 
+  wire signed [W-1:0] local_ox, local_oy, local_oz, local_dx, local_dy, local_dz;
+  `PT_INSTANCE_RAY_UNIT instance_ray(.clk(clk), .in_valid(instance_issue), .row0_x(field(primitive_read, 0)), .row0_y(field(primitive_read, 1)),
+                                     .row0_z(field(primitive_read, 2)), .row1_x(field(primitive_read, 3)), .row1_y(field(primitive_read, 4)),
+                                     .row1_z(field(primitive_read, 5)), .row2_x(field(primitive_read, 6)), .row2_y(field(primitive_read, 7)),
+                                     .row2_z(field(primitive_read, 8)), .translation_x(field(primitive_read, 9)),
+                                     .translation_y(field(primitive_read, 10)), .translation_z(field(primitive_read, 11)), .origin_x(ox[c]),
+                                     .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]), .direction_y(dy[c]), .direction_z(dz[c]),
+                                     .out_valid(instance_valid), .local_origin_x(local_ox), .local_origin_y(local_oy), .local_origin_z(local_oz),
+                                     .local_direction_x(local_dx), .local_direction_y(local_dy), .local_direction_z(local_dz));
   wire setup_valid;
   wire signed [W-1:0] setup_x, setup_y, setup_z;
-  `PT_RAY_SETUP_UNIT ray_setup(.clk(clk), .in_valid(accept), .direction_x(direction_x), .direction_y(direction_y), .direction_z(direction_z),
+  `PT_RAY_SETUP_UNIT ray_setup(.clk(clk), .in_valid(accept || instance_valid), .direction_x(instance_valid ? local_dx : direction_x),
+                               .direction_y(instance_valid ? local_dy : direction_y), .direction_z(instance_valid ? local_dz : direction_z),
                                .out_valid(setup_valid), .inv_x(setup_x), .inv_y(setup_y), .inv_z(setup_z));
   wire box_valid, box_hit;
   wire signed [W-1:0] box_entry;
-  `PT_BOX_UNIT box(.clk(clk), .in_valid(b_box), .inv_direction_x(ix[c]), .inv_direction_y(iy[c]), .inv_direction_z(iz[c]),
-                   .origin_term_x(ox[c]), .origin_term_y(oy[c]), .origin_term_z(oz[c]),
+  `PT_BOX_UNIT box(.clk(clk), .in_valid(b_box), .inv_direction_x(ray_ix), .inv_direction_y(ray_iy), .inv_direction_z(ray_iz),
+                   .origin_term_x(ray_ox), .origin_term_y(ray_oy), .origin_term_z(ray_oz),
                    .near_bound_x(bound(node_read, neg_x ? 3 : 0)), .near_bound_y(bound(node_read, neg_y ? 4 : 1)),
                    .near_bound_z(bound(node_read, neg_z ? 5 : 2)), .far_bound_x(bound(node_read, neg_x ? 0 : 3)),
                    .far_bound_y(bound(node_read, neg_y ? 1 : 4)), .far_bound_z(bound(node_read, neg_z ? 2 : 5)),
@@ -156,8 +199,8 @@ module traversal_engine #(
   `PT_TRIANGLE_UNIT triangle(.clk(clk), .in_valid(triangle_issue), .p0_x(field(primitive_read, 0)), .p0_y(field(primitive_read, 1)),
                              .p0_z(field(primitive_read, 2)), .edge1_x(field(primitive_read, 3)), .edge1_y(field(primitive_read, 4)),
                              .edge1_z(field(primitive_read, 5)), .edge2_x(field(primitive_read, 6)), .edge2_y(field(primitive_read, 7)),
-                             .edge2_z(field(primitive_read, 8)), .origin_x(ox[c]), .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]),
-                             .direction_y(dy[c]), .direction_z(dz[c]), .t_min(zero), .t_max(closest[c]), .out_valid(triangle_valid),
+                             .edge2_z(field(primitive_read, 8)), .origin_x(ray_ox), .origin_y(ray_oy), .origin_z(ray_oz), .direction_x(ray_dx),
+                             .direction_y(ray_dy), .direction_z(ray_dz), .t_min(zero), .t_max(closest[c]), .out_valid(triangle_valid),
                              .hit(triangle_hit), .t(triangle_t), .b1(triangle_b1), .b2(triangle_b2));
   wire quad_valid, quad_hit;
   wire signed [W-1:0] quad_t, quad_b1, quad_b2;
@@ -172,17 +215,26 @@ module traversal_engine #(
   // ---- Tag FIFOs: which context (and for boxes which child) each result in a unit's pipeline belongs to ----
   reg [CONTEXT_BITS+1:0] setup_tags [0:(1 << FIFO_BITS) - 1], box_tags [0:(1 << FIFO_BITS) - 1];
   reg [CONTEXT_BITS+1:0] sphere_tags [0:(1 << FIFO_BITS) - 1], triangle_tags [0:(1 << FIFO_BITS) - 1], quad_tags [0:(1 << FIFO_BITS) - 1];
+  reg [CONTEXT_BITS+1:0] instance_tags [0:(1 << FIFO_BITS) - 1];
   reg [FIFO_BITS-1:0] setup_in, setup_out, box_in, box_out, sphere_in, sphere_out, triangle_in, triangle_out, quad_in, quad_out;
+  reg [FIFO_BITS-1:0] instance_in, instance_out;
   wire [CONTEXT_BITS-1:0] setup_context = setup_tags[setup_out][CONTEXT_BITS-1:0];
+  wire setup_for_instance = setup_tags[setup_out][CONTEXT_BITS];
+  wire [CONTEXT_BITS-1:0] instance_context = instance_tags[instance_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] box_context = box_tags[box_out][CONTEXT_BITS-1:0];
   wire [1:0] box_which = box_tags[box_out][CONTEXT_BITS +: 2];
   wire [CONTEXT_BITS-1:0] sphere_context = sphere_tags[sphere_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] triangle_context = triangle_tags[triangle_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] quad_context = quad_tags[quad_out][CONTEXT_BITS-1:0];
 
-  // Going to a node whose header is known: a leaf's primitives, or an inner node's two children's boxes.
+  // Going to a node whose header is known: a leaf's primitives (a mesh leaf's triangles), or an inner node's two
+  // children's boxes.
   task automatic enter(input [CONTEXT_BITS-1:0] x, input [95:0] header);
-    if (header[63:32] != 0) begin
+    if (header[63:32] != 0 && in_mesh[x]) begin
+      next_triangle[x] <= header[31:0];
+      end_triangle[x] <= header[31:0] + header[63:32];
+      state[x] <= MESH_PRIMITIVE;
+    end else if (header[63:32] != 0) begin
       next_primitive[x] <= header[31:0];
       end_primitive[x] <= header[31:0] + header[63:32];
       state[x] <= PRIMITIVE;
@@ -192,14 +244,44 @@ module traversal_engine #(
       state[x] <= BOX0;
     end
   endtask
-  // The walk goes on from the stack, or ends.
-  task automatic pop(input [CONTEXT_BITS-1:0] x);
+  function automatic [CONTEXT_BITS+6:0] stack_slot(input [CONTEXT_BITS-1:0] x, input [7:0] level);
+    stack_slot = {x, level[6:0]};
+  endfunction
+  // The scene's walk goes on from the stack, or ends.
+  task automatic scene_pop(input [CONTEXT_BITS-1:0] x);
     if (depth[x] == 0) begin
       state[x] <= DONE;
     end else begin
       depth[x] <= depth[x] - 1;
-      enter(x, stack[{x, 6'd0} + {{CONTEXT_BITS{1'b0}}, depth[x][5:0]} - 1]);
+      next_primitive[x] <= stack[stack_slot(x, depth[x] - 1)][31:0];
+      end_primitive[x] <= stack[stack_slot(x, depth[x] - 1)][31:0] + stack[stack_slot(x, depth[x] - 1)][63:32];
+      child0[x] <= stack[stack_slot(x, depth[x] - 1)][95:64] + 1;
+      child1[x] <= stack[stack_slot(x, depth[x] - 1)][31:0];
+      state[x] <= stack[stack_slot(x, depth[x] - 1)][63:32] != 0 ? PRIMITIVE : BOX0;
     end
+  endtask
+  // The scene's leaf goes on after a primitive: its next one, or the stack.
+  task automatic scene_leaf_next(input [CONTEXT_BITS-1:0] x);
+    if (next_primitive[x] + 1 != end_primitive[x]) begin
+      next_primitive[x] <= next_primitive[x] + 1;
+      state[x] <= PRIMITIVE;
+    end else begin
+      scene_pop(x);
+    end
+  endtask
+  // A mesh's walk goes on from the stack, or, back at the depth it began at, ends: the scene's leaf goes on.
+  task automatic mesh_pop(input [CONTEXT_BITS-1:0] x);
+    if (depth[x] == mesh_base[x]) begin
+      in_mesh[x] <= 0;
+      scene_leaf_next(x);
+    end else begin
+      depth[x] <= depth[x] - 1;
+      enter(x, stack[stack_slot(x, depth[x] - 1)]);
+    end
+  endtask
+  task automatic pop(input [CONTEXT_BITS-1:0] x);
+    if (in_mesh[x]) mesh_pop(x);
+    else scene_pop(x);
   endtask
   // A primitive's result: the closest hit narrows where it was hit, then the leaf's next primitive or the stack.
   task automatic primitive_done(input [CONTEXT_BITS-1:0] x, input hit, input signed [W-1:0] t, input signed [W-1:0] b1,
@@ -211,12 +293,18 @@ module traversal_engine #(
       found_b1[x] <= b1;
       found_b2[x] <= b2;
       found_primitive[x] <= next_primitive[x];
+      found_in_mesh[x] <= in_mesh[x];
+      found_triangle[x] <= next_triangle[x];
     end
-    if (next_primitive[x] + 1 != end_primitive[x]) begin
-      next_primitive[x] <= next_primitive[x] + 1;
-      state[x] <= PRIMITIVE;
+    if (in_mesh[x]) begin
+      if (next_triangle[x] + 1 != end_triangle[x]) begin
+        next_triangle[x] <= next_triangle[x] + 1;
+        state[x] <= MESH_PRIMITIVE;
+      end else begin
+        mesh_pop(x);
+      end
     end else begin
-      pop(x);
+      scene_leaf_next(x);
     end
   endtask
 
@@ -226,7 +314,7 @@ module traversal_engine #(
       for (k = 0; k < CONTEXTS; k = k + 1) state[k] <= FREE;
       b_valid <= 0;
       hit_valid <= 0;
-      setup_in <= 0; setup_out <= 0; box_in <= 0; box_out <= 0; sphere_in <= 0; sphere_out <= 0;
+      setup_in <= 0; setup_out <= 0; box_in <= 0; box_out <= 0; sphere_in <= 0; sphere_out <= 0; instance_in <= 0; instance_out <= 0;
       triangle_in <= 0; triangle_out <= 0; quad_in <= 0; quad_out <= 0;
     end else begin
       if (node_write) nodes[node_address] <= node_data;
@@ -241,15 +329,31 @@ module traversal_engine #(
         rtime[free_context] <= ray_time;
         closest[free_context] <= t_max;
         depth[free_context] <= 0;
+        in_mesh[free_context] <= 0;
         found[free_context] <= 0;
         box_tests[free_context] <= 0;
         primitive_tests[free_context] <= 0;
         setup_tags[setup_in] <= {2'b0, free_context};
         setup_in <= setup_in + 1;
       end
+      // A ray taken into an instance: its reciprocal next, then the mesh's root.
+      if (instance_valid) begin
+        lx[instance_context] <= local_ox; ly[instance_context] <= local_oy; lz[instance_context] <= local_oz;
+        ldx[instance_context] <= local_dx; ldy[instance_context] <= local_dy; ldz[instance_context] <= local_dz;
+        instance_out <= instance_out + 1;
+        setup_tags[setup_in] <= {2'b01, instance_context};
+        setup_in <= setup_in + 1;
+      end
       if (setup_valid) begin
-        ix[setup_context] <= setup_x; iy[setup_context] <= setup_y; iz[setup_context] <= setup_z;
-        state[setup_context] <= ROOT;
+        if (setup_for_instance) begin
+          lix[setup_context] <= setup_x; liy[setup_context] <= setup_y; liz[setup_context] <= setup_z;
+          in_mesh[setup_context] <= 1;
+          mesh_base[setup_context] <= depth[setup_context];
+          state[setup_context] <= MESH_ROOT;
+        end else begin
+          ix[setup_context] <= setup_x; iy[setup_context] <= setup_y; iz[setup_context] <= setup_z;
+          state[setup_context] <= ROOT;
+        end
         setup_out <= setup_out + 1;
       end
 
@@ -260,21 +364,26 @@ module traversal_engine #(
         b_kind <= state[pick];
         b_index <= pick_node;
         node_read <= nodes[pick_node[NODE_BITS-1:0]];
-        primitive_read <= primitives[next_primitive[pick][PRIMITIVE_BITS-1:0]];
+        primitive_read <= primitives[pick_primitive[PRIMITIVE_BITS-1:0]];
         state[pick] <= ISSUING;
       end
 
       // Stage B: the test goes into its unit (the unit's inputs are wired above); the context waits for it.
       if (b_valid) begin
-        if (b_kind == PRIMITIVE) begin
+        if (b_primitive) begin
           primitive_tests[c] <= primitive_tests[c] + 1;
           state[c] <= WAITING;
           if (sphere_issue) begin sphere_tags[sphere_in] <= {2'b0, c}; sphere_in <= sphere_in + 1; end
           if (triangle_issue) begin triangle_tags[triangle_in] <= {2'b0, c}; triangle_in <= triangle_in + 1; end
           if (quad_issue) begin quad_tags[quad_in] <= {2'b0, c}; quad_in <= quad_in + 1; end
+          if (instance_issue) begin
+            instance_tags[instance_in] <= {2'b0, c};
+            instance_in <= instance_in + 1;
+            mesh_root[c] <= field(primitive_read, 12);
+          end
         end else begin
           box_tests[c] <= box_tests[c] + 1;
-          box_tags[box_in] <= {b_kind == BOX1 ? WHICH_SECOND : b_kind == BOX0 ? WHICH_FIRST : WHICH_ROOT, c};
+          box_tags[box_in] <= {b_kind == BOX1 ? WHICH_SECOND : b_kind == BOX0 ? WHICH_FIRST : WHICH_ROOT, c};  // ROOT, MESH_ROOT
           box_in <= box_in + 1;
           if (b_kind == BOX1) header1[c] <= {b_index, node_read[6*W+32 +: 32], node_read[6*W +: 32]};
           else header0[c] <= {b_index, node_read[6*W+32 +: 32], node_read[6*W +: 32]};
@@ -286,7 +395,9 @@ module traversal_engine #(
       if (box_valid) begin
         box_out <= box_out + 1;
         if (box_which == WHICH_ROOT) begin
+          // A mesh's root missed: the instance is done (mesh_pop at the depth it began at).
           if (box_hit) enter(box_context, header0[box_context]);
+          else if (in_mesh[box_context]) mesh_pop(box_context);
           else state[box_context] <= DONE;
         end else if (box_which == WHICH_FIRST) begin
           first_hit[box_context] <= box_hit;
@@ -298,7 +409,7 @@ module traversal_engine #(
           end else begin
             near_header = header0[box_context]; far_header = header1[box_context];
           end
-          stack[{box_context, 6'd0} + {{CONTEXT_BITS{1'b0}}, depth[box_context][5:0]}] <= far_header;
+          stack[stack_slot(box_context, depth[box_context])] <= far_header;
           depth[box_context] <= depth[box_context] + 1;
           enter(box_context, near_header);
         end else if (first_hit[box_context]) begin
@@ -332,6 +443,8 @@ module traversal_engine #(
         hit_b1 <= found_b1[done_context];
         hit_b2 <= found_b2[done_context];
         hit_primitive <= found_primitive[done_context];
+        hit_in_mesh <= found_in_mesh[done_context];
+        hit_triangle <= found_triangle[done_context];
         hit_box_tests <= box_tests[done_context];
         hit_primitive_tests <= primitive_tests[done_context];
         state[done_context] <= FREE;
