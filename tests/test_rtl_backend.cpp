@@ -52,8 +52,9 @@ TEST_P(RtlBackend, RendersTheCpuWavefrontImageBitForBit) {
   EXPECT_EQ(cpu.stats.rays, rtl.stats.rays);
 }
 
-// The shipped scenes without media, which the engine does not hold yet.
-INSTANTIATE_TEST_SUITE_P(ShippedScenes, RtlBackend, ::testing::Values("cornell-box", "book1-final", "environment", "normal-maps", "meshes"));
+INSTANTIATE_TEST_SUITE_P(ShippedScenes, RtlBackend,
+                         ::testing::Values("cornell-box", "cornell-smoke", "book1-final", "book2-final", "environment", "meshes", "normal-maps",
+                                           "seed-default", "tiny"));
 
 std::string refusal(const std::function<void()>& attempt) {
   try {
@@ -67,10 +68,18 @@ std::string refusal(const std::function<void()>& attempt) {
 TEST(RtlBackendRefuses, FloatingPointFormatsTheMegakernelAndScenesItCannotHold) {
   EXPECT_NE(refusal([] { make_backend<float>("rtl", 1, 0, Integrator::kWavefront); }).find("fixed point"), std::string::npos);
   EXPECT_NE(refusal([] { make_backend<Q16>("rtl", 1, 0, Integrator::kMegakernel); }).find("wavefront integrator only"), std::string::npos);
-  const SceneDescription smoke = load_scene_file(test::scene_path("cornell-smoke.json"));
-  const FlatScene<Q16> flat = flatten_scene<Q16>(smoke, tiny_settings(smoke));
+  // More spheres than the engine's primitive memory holds (65,536).
+  SceneDescription crowd = test::generated_scene({0, 0, 60});
+  crowd.textures.push_back(SolidTexture<double>{{0.5, 0.5, 0.5}});
+  crowd.materials.push_back(Lambertian<double>{0});
+  for (int i = 0; i < 70000; ++i) {
+    SceneObject sphere;
+    sphere.shape = Sphere<double>{{(i % 280) * 0.1 - 14.0, (i / 280) * 0.1 - 12.5, 0.0}, 0.04};
+    crowd.objects.push_back(sphere);
+  }
+  const FlatScene<Q16> flat = flatten_scene<Q16>(crowd, tiny_settings(crowd));
   auto renderer = make_backend<Q16>("rtl", 1, 0, Integrator::kAuto);
-  EXPECT_NE(refusal([&] { renderer->upload(flat); }).find("constant medium"), std::string::npos);
+  EXPECT_NE(refusal([&] { renderer->upload(flat); }).find("the traversal engine holds 65536"), std::string::npos);
 }
 
 std::string run_command(const std::string& command, int& exit_code) {

@@ -157,6 +157,18 @@ def sphere_test(u: Unit, center, radius) -> None:
     """The body of sphere_unit for a centre and radius computed or read elsewhere."""
     origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
     t_min, t_max = u.input("t_min"), u.input("t_max")
+    misses, near, far = sphere_roots(u, center, radius, origin, direction)
+    near_inside = u.and_(u.gt(near, t_min), u.lt(near, t_max))
+    far_inside = u.and_(u.gt(far, t_min), u.lt(far, t_max))
+    zero = u.zero()
+    u.output("hit", u.and_(u.not_(misses), u.or_(near_inside, far_inside)))
+    u.output("t", u.select(near_inside, near, far))
+    u.output("b1", zero)
+    u.output("b2", zero)
+
+
+def sphere_roots(u: Unit, center, radius, origin, direction):
+    """sphere_roots (src/kernel/shapes.hpp): whether the line misses the sphere, and its two crossings."""
     oc = u.vsub(origin, center)
     if exact_products(u):
         b = u.round_exact(u.xdot(oc, direction))
@@ -171,15 +183,36 @@ def sphere_test(u: Unit, center, radius) -> None:
         misses = u.lt(discriminant, u.zero())
         root = u.sqrt(discriminant)
     minus_b = u.neg(b)
-    near = u.sub(minus_b, root)
-    far = u.add(minus_b, root)
-    near_inside = u.and_(u.gt(near, t_min), u.lt(near, t_max))
-    far_inside = u.and_(u.gt(far, t_min), u.lt(far, t_max))
+    return misses, u.sub(minus_b, root), u.add(minus_b, root)
+
+
+def sphere_crossings_unit(u: Unit) -> None:
+    """The crossings of a medium's spherical boundary with the ray's whole line (widen_to_crossings,
+    src/kernel/shapes.hpp): sphere_roots' near and far, and whether the line meets the sphere at all."""
+    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
+    misses, near, far = sphere_roots(u, vec_input(u, "center"), u.input("radius"), origin, direction)
+    u.output("hit", u.not_(misses))
+    u.output("near", near)
+    u.output("far", far)
+
+
+def medium_unit(u: Unit) -> None:
+    """The end of intersect_medium (src/kernel/shapes.hpp), once the boundary's crossings are known (first, last):
+    the line's stretch inside, clipped to (0, t_max); for a shadow ray (`shadow` not 0) the optical depth it adds,
+    (entry - exit) / neg_inv_density, summed into optical_depth; for another the free-flight distance `distance`
+    (neg_inv_density log(1 - u), drawn beside the ray) compared with the stretch, and the hit at entry + distance."""
+    first, last, t_max = u.input("first"), u.input("last"), u.input("t_max")
+    distance, neg_inv_density = u.input("distance"), u.input("neg_inv_density")
+    optical_depth, shadow = u.input("optical_depth"), u.input("shadow")
     zero = u.zero()
-    u.output("hit", u.and_(u.not_(misses), u.or_(near_inside, far_inside)))
-    u.output("t", u.select(near_inside, near, far))
-    u.output("b1", zero)
-    u.output("b2", zero)
+    entry = u.max(u.max(first, zero), zero)  # max(entry, t_min), then max(entry, 0)
+    exit_ = u.min(last, t_max)
+    inside = u.lt(entry, exit_)
+    is_shadow = u.ne(shadow, zero)
+    u.output("hit", u.and_(u.not_(is_shadow), inside, u.not_(u.gt(distance, u.sub(exit_, entry)))))
+    u.output("t", u.add(entry, distance))
+    u.output("optical_depth_out", u.select(u.and_(is_shadow, inside), u.add(optical_depth, u.div(u.sub(entry, exit_), neg_inv_density)),
+                                       optical_depth))
 
 
 def moving_sphere_unit(u: Unit) -> None:
@@ -217,7 +250,8 @@ def ray_setup_unit(u: Unit) -> None:
 
 
 UNITS = {"box": box_unit, "triangle": triangle_unit, "quad": quad_unit, "sphere": sphere_unit,
-         "moving_sphere": moving_sphere_unit, "ray_setup": ray_setup_unit, "instance_ray": instance_ray_unit}
+         "moving_sphere": moving_sphere_unit, "ray_setup": ray_setup_unit, "instance_ray": instance_ray_unit,
+         "sphere_crossings": sphere_crossings_unit, "medium": medium_unit}
 
 
 def build(name: str, integer_bits: int, fraction_bits: int, **options) -> Unit:
@@ -261,7 +295,8 @@ def ports_header(u: Unit, model_class: str = "") -> str:
 
 # The units the traversal engine (src/backends/rtl/traversal_engine.v) instantiates, by the macro it names each with.
 ENGINE_UNITS = {"PT_RAY_SETUP_UNIT": "ray_setup", "PT_BOX_UNIT": "box", "PT_SPHERE_UNIT": "moving_sphere",
-                "PT_TRIANGLE_UNIT": "triangle", "PT_QUAD_UNIT": "quad", "PT_INSTANCE_RAY_UNIT": "instance_ray"}
+                "PT_TRIANGLE_UNIT": "triangle", "PT_QUAD_UNIT": "quad", "PT_INSTANCE_RAY_UNIT": "instance_ray",
+                "PT_CROSSINGS_UNIT": "sphere_crossings", "PT_MEDIUM_UNIT": "medium"}
 
 
 def engine_units(integer_bits: int, fraction_bits: int, **options) -> str:

@@ -29,7 +29,7 @@ struct EngineTally {
 
 struct EngineCounters {
   u64 clocks = 0;  // clocks the engine ran while rays were in it
-  u64 box_issues = 0, sphere_issues = 0, triangle_issues = 0, quad_issues = 0, instance_issues = 0;
+  u64 box_issues = 0, sphere_issues = 0, triangle_issues = 0, quad_issues = 0, instance_issues = 0, medium_issues = 0;
   EngineTally primary, bounce, shadow;
 };
 
@@ -38,6 +38,8 @@ template <class T>
 struct EngineQuery {
   Ray<T> ray;
   T t_max;
+  bool shadow;                     // media add their optical depth to it instead of scattering it
+  std::array<T, 4> free_flights;   // a path ray's free-flight distance in each medium (RtlDevice::medium_slots_)
   EngineTally* tally;
 };
 
@@ -45,6 +47,7 @@ struct EngineAnswer {
   bool found;
   u32 primitive;
   u32 triangle;  // a mesh triangle's index in MeshData::triangles, else 0
+  std::int64_t optical_depth;  // raw: a shadow ray's, summed over the media it crossed
   std::int64_t t, b1, b2;  // raw fixed-point values
 };
 
@@ -55,6 +58,7 @@ class RtlDevice {
   static_assert(is_fixed_v<T>, "the traversal engine computes in fixed point");
   static constexpr u32 kWordBits = T::kTotalBits;
   static constexpr u32 kNodeBits = 16, kPrimitiveBits = 16;  // the engine's memories (traversal_engine.v parameters)
+  static constexpr std::size_t kMediumSlots = 4;             // free-flight distances a ray brings (traversal_engine.v)
 
   explicit RtlDevice(unsigned threads) : cpu_(threads), model_(std::make_unique<Model>()) {
     model_->reset = 1;
@@ -103,11 +107,19 @@ class RtlDevice {
   void take_scene(const SceneView<T>& scene) {
     const Extent own = extent(scene.nodes, 0);
     std::vector<u32> placed;  // each placed mesh, once
+    media_.clear();
+    u32 boundaries = 0;
     for (u32 i = 0; i < own.primitives; ++i) {
       const Shape<T>& shape = scene.primitives[i].shape;
-      if (std::holds_alternative<ConstantMedium<T>>(shape))
-        throw BackendError(fmt::format("the scene has a constant medium (primitive {}), which the traversal engine does not hold yet", i));
       if (const auto* instance = std::get_if<MeshInstance<T>>(&shape)) placed.push_back(instance->mesh);
+      if (const auto* medium = std::get_if<ConstantMedium<T>>(&shape)) {
+        if (media_.size() == kMediumSlots)
+          throw BackendError(fmt::format("the scene has more than {} constant media (primitive {}); the traversal engine takes {} free-flight distances "
+                                         "a ray", kMediumSlots, i, kMediumSlots));
+        if (medium->boundary_count == 0) throw BackendError(fmt::format("the constant medium of primitive {} has no boundary", i));
+        media_.push_back(MediumSlot{i, medium->neg_inv_density});
+        boundaries = std::max(boundaries, medium->first_boundary + medium->boundary_count);
+      }
     }
     std::sort(placed.begin(), placed.end());
     placed.erase(std::unique(placed.begin(), placed.end()), placed.end());
@@ -119,7 +131,8 @@ class RtlDevice {
     }
     node_base_ = own.nodes;
     triangle_base_ = own.primitives;
-    const u64 nodes = u64{own.nodes} + meshes.nodes, primitives = u64{own.primitives} + meshes.primitives;
+    const u32 boundary_base = own.primitives + meshes.primitives;
+    const u64 nodes = u64{own.nodes} + meshes.nodes, primitives = u64{boundary_base} + boundaries;
     if (nodes > (1u << kNodeBits) || primitives > (1u << kPrimitiveBits))
       throw BackendError(fmt::format("the scene has {} BVH nodes and {} primitives and mesh triangles; the traversal engine holds {} of each", nodes,
                                      primitives, 1u << kNodeBits));
@@ -138,6 +151,16 @@ class RtlDevice {
         PrimitiveFields{fields}.set(9, rows.translation);
         fields[12] = T::from_raw(static_cast<typename T::Storage>(node_base_ + scene.meshes.meshes[instance->mesh].root));
       }
+      if (const auto* medium = std::get_if<ConstantMedium<T>>(&scene.primitives[i].shape)) {
+        // Its pieces' place, their count, its density term, and which of the ray's free-flight distances is its.
+        kind = 4;
+        fields[0] = T::from_raw(static_cast<typename T::Storage>(boundary_base + medium->first_boundary));
+        fields[1] = T::from_raw(static_cast<typename T::Storage>(medium->boundary_count));
+        fields[2] = medium->neg_inv_density;
+        u32 slot = 0;
+        while (media_[slot].primitive != i) ++slot;
+        fields[3] = T::from_raw(static_cast<typename T::Storage>(slot));
+      }
       load_primitive(i, kind, fields);
     }
     // A mesh's triangles as the scene's are stored: p0 and the two edges from it (the subtraction MeshLeaf makes).
@@ -152,6 +175,20 @@ class RtlDevice {
         load_primitive(triangle_base_ + i, 1, fields);
       }
     }
+    // The media's boundary pieces: a sphere's two crossings come from the crossings unit (kind 5), a face's from its
+    // own unit.
+    for (u32 i = 0; i < boundaries; ++i) {
+      std::array<T, 14> fields{};
+      const Shape<T>& piece = scene.boundaries[i].shape;
+      u32 kind = std::visit(PrimitiveFields{fields}, piece);
+      if (std::holds_alternative<Sphere<T>>(piece))
+        kind = 5;
+      else if (!std::holds_alternative<Quad<T>>(piece) && !std::holds_alternative<Triangle<T>>(piece))
+        throw BackendError(fmt::format("a constant medium's boundary piece {} is neither a sphere, a quad nor a triangle: the traversal engine "
+                                       "does not hold it",
+                                       i));
+      load_primitive(boundary_base + i, kind, fields);
+    }
   }
 
   // What the engine did since the device was made, as lines for the render's summary.
@@ -159,9 +196,9 @@ class RtlDevice {
     const EngineCounters& c = counters_;
     const u64 rays = c.primary.rays + c.bounce.rays + c.shadow.rays;
     std::vector<std::string> lines{fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box {:.1f}%, sphere {:.1f}%, "
-                                               "triangle {:.1f}%, quad {:.1f}%, instance {:.1f}%",
+                                               "triangle {:.1f}%, quad {:.1f}%, instance {:.1f}%, medium {:.1f}%",
                                                rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues), share(c.sphere_issues),
-                                               share(c.triangle_issues), share(c.quad_issues), share(c.instance_issues))};
+                                               share(c.triangle_issues), share(c.quad_issues), share(c.instance_issues), share(c.medium_issues))};
     for (const auto& [name, tally] : {std::pair{"primary", &c.primary}, std::pair{"bounce", &c.bounce}, std::pair{"shadow", &c.shadow}}) {
       const double n = std::max<double>(1, tally->rays);
       lines.push_back(fmt::format("  {} rays: {}, {:.1f} clocks each in the engine, {:.1f} box and {:.1f} primitive tests each", name, tally->rays,
@@ -208,7 +245,7 @@ class RtlDevice {
   void load_primitive(u32 address, u32 kind, const std::array<T, 14>& fields) {
     clear_words(model_->primitive_data);
     for (u32 f = 0; f < fields.size(); ++f) put(model_->primitive_data, f * kWordBits, kWordBits, raw(fields[f]));
-    put(model_->primitive_data, 14 * kWordBits, 2, kind);
+    put(model_->primitive_data, 14 * kWordBits, 3, kind);
     model_->primitive_write = 1;
     model_->primitive_address = address;
     tick();
@@ -290,12 +327,18 @@ class RtlDevice {
     queries_.clear();
     for (u32 i = 0; i < paths; ++i) {
       const PathState<T> path = w.current.load(i);
-      queries_.push_back({path.ray, largest<T>(), path.bounce == 0 ? &counters_.primary : &counters_.bounce});
+      // The free-flight distance intersect_medium would draw in each medium (the same draw, from the path's random
+      // numbers at this bounce and the medium's index).
+      std::array<T, kMediumSlots> free_flights{};
+      const SampleRandom random = wavefront_random(scene, w, w.current.item[i]);
+      for (std::size_t m = 0; m < media_.size(); ++m)
+        free_flights[m] = media_[m].neg_inv_density * log(T(1) - random.template uniform<T>(path.bounce, kDimMediumBase + media_[m].primitive));
+      queries_.push_back({path.ray, largest<T>(), false, free_flights, path.bounce == 0 ? &counters_.primary : &counters_.bounce});
     }
     std::vector<ShadowRay<T>> shadow_rays(shadows);
     for (u32 i = 0; i < shadows; ++i) {
       shadow_rays[i] = w.shadows.load(i);
-      queries_.push_back({shadow_rays[i].ray, shadow_rays[i].distance, &counters_.shadow});
+      queries_.push_back({shadow_rays[i].ray, shadow_rays[i].distance, true, {}, &counters_.shadow});
     }
     run(queries_);
     for (u32 i = 0; i < paths + shadows; ++i) {
@@ -311,7 +354,9 @@ class RtlDevice {
       if (i < paths)
         wavefront_queue_hit(w, scene, i, a.found, hit);
       else
-        wavefront_add_shadow(w, i - paths, shadow_contribution_found(scene, shadow_rays[i - paths], a.found, hit, T(0)));
+        wavefront_add_shadow(w, i - paths,
+                             shadow_contribution_found(scene, shadow_rays[i - paths], a.found, hit,
+                                                       T::from_raw(static_cast<typename T::Storage>(a.optical_depth))));
     }
   }
 
@@ -334,6 +379,11 @@ class RtlDevice {
         m.direction_z = static_cast<u32>(raw(q.ray.direction.z));
         m.ray_time = static_cast<u32>(raw(q.ray.time));
         m.t_max = static_cast<u32>(raw(q.t_max));
+        m.ray_shadow = q.shadow;
+        m.medium_distance_0 = static_cast<u32>(raw(q.free_flights[0]));
+        m.medium_distance_1 = static_cast<u32>(raw(q.free_flights[1]));
+        m.medium_distance_2 = static_cast<u32>(raw(q.free_flights[2]));
+        m.medium_distance_3 = static_cast<u32>(raw(q.free_flights[3]));
       }
       m.clk = 0;
       m.eval();
@@ -343,14 +393,16 @@ class RtlDevice {
       counters_.triangle_issues += m.triangle_issue;
       counters_.quad_issues += m.quad_issue;
       counters_.instance_issues += m.instance_issue;
+      counters_.medium_issues += m.medium_issue;
       m.clk = 1;
       m.eval();
       ++counters_.clocks;
       if (accepted) entered_[next++] = counters_.clocks;
       if (m.hit_valid) {
         const u32 id = m.hit_id;
-        answers_[id] = EngineAnswer{m.hit_found != 0, m.hit_primitive, m.hit_in_mesh ? m.hit_triangle - triangle_base_ : 0u, from_word(m.hit_t).raw,
-                                    from_word(m.hit_b1).raw, from_word(m.hit_b2).raw};
+        answers_[id] = EngineAnswer{m.hit_found != 0,        m.hit_primitive,          m.hit_in_mesh ? m.hit_triangle - triangle_base_ : 0u,
+                                    from_word(m.hit_optical_depth).raw, from_word(m.hit_t).raw, from_word(m.hit_b1).raw,
+                                    from_word(m.hit_b2).raw};
         EngineTally& tally = *queries[id].tally;
         ++tally.rays;
         tally.latency_clocks += counters_.clocks - entered_[id];
@@ -365,6 +417,11 @@ class RtlDevice {
   CpuDevice cpu_;
   std::unique_ptr<Model> model_;
   u32 node_base_ = 0, triangle_base_ = 0;  // where the meshes' nodes and triangles begin in the engine's memories
+  struct MediumSlot {
+    u32 primitive;
+    T neg_inv_density;
+  };
+  std::vector<MediumSlot> media_;  // the scene's media, in the order of the free-flight distances a ray brings
   EngineCounters counters_;
   std::vector<EngineQuery<T>> queries_;
   std::vector<EngineAnswer> answers_;

@@ -22,7 +22,15 @@
 // a moving one, fields center0, radius, velocity, time0; 1: a triangle, p0, edge1, edge2; 2: a quad, corner, normal,
 // du, dv, u_extent, v_extent; 3: a mesh instance, its world-to-mesh rows and translation and its mesh's root node),
 // the scene's and after them the meshes' triangles. Written through the load ports before rays are sent. Left out:
-// constant media (the host refuses scenes that have them).
+// the random draw of a medium's free-flight distance (see below).
+//
+// A constant medium (intersect_medium) is walked like a leaf of its own: its boundary's pieces one after another
+// (a sphere's two crossings of the ray's line from the crossings unit, a face's one from the triangle or quad unit
+// over the whole line), then the medium unit clips the stretch inside to (0, closest) and either adds its optical
+// depth (a shadow ray) or compares it with the free-flight distance the ray brought for that medium. That distance,
+// neg_inv_density log(1 - u) of the ray's own random number, depends on the ray's sample, its bounce and the
+// medium's index only, never on the walk: the host draws it beside the ray (up to four media), so the hash of the
+// random stream and the logarithm are the part of the intersect stage that is not in this engine.
 `default_nettype none
 module traversal_engine #(
   parameter W = `PT_ENGINE_WORD,      // bits of a fixed-point value
@@ -30,7 +38,7 @@ module traversal_engine #(
   parameter NODE_BITS = 16,           // node memory: 2^NODE_BITS entries
   parameter PRIMITIVE_BITS = 16,      // primitive memory: 2^PRIMITIVE_BITS entries
   parameter NODE_WIDTH = 6 * W + 64,
-  parameter PRIMITIVE_WIDTH = 14 * W + 2
+  parameter PRIMITIVE_WIDTH = 14 * W + 3
 ) (
   input wire clk,
   input wire reset,
@@ -48,6 +56,8 @@ module traversal_engine #(
   input wire signed [W-1:0] direction_x, direction_y, direction_z,
   input wire signed [W-1:0] ray_time,
   input wire signed [W-1:0] t_max,
+  input wire ray_shadow,              // a shadow ray: media add their optical depth instead of scattering it
+  input wire signed [W-1:0] medium_distance_0, medium_distance_1, medium_distance_2, medium_distance_3,
   // One finished ray per clock at most: hit_found says whether anything was hit before t_max.
   output reg hit_valid,
   output reg [31:0] hit_id,
@@ -56,6 +66,7 @@ module traversal_engine #(
   output reg [31:0] hit_primitive,
   output reg hit_in_mesh,             // hit_triangle names the mesh triangle's place in primitive memory
   output reg [31:0] hit_triangle,
+  output reg signed [W-1:0] hit_optical_depth,
   output reg [15:0] hit_box_tests,
   output reg [15:0] hit_primitive_tests,
   // Which units take a test this clock (for utilisation).
@@ -63,15 +74,17 @@ module traversal_engine #(
   output wire sphere_issue,
   output wire triangle_issue,
   output wire quad_issue,
-  output wire instance_issue
+  output wire instance_issue,
+  output wire medium_issue
 );
   localparam CONTEXTS = 1 << CONTEXT_BITS;
   localparam DEPTH = 128;  // kBvhMaxDepth for the scene's walk and as much for a mesh's above it
   localparam FIFO_BITS = 7;  // tags in flight per unit: more than the deepest unit's latency
   localparam [3:0] FREE = 0, SETUP = 1, ROOT = 2, BOX0 = 3, BOX1 = 4, PRIMITIVE = 5, ISSUING = 6, WAITING = 7, DONE = 8,
-                   MESH_ROOT = 9, MESH_PRIMITIVE = 10;
+                   MESH_ROOT = 9, MESH_PRIMITIVE = 10, MEDIUM_PIECE = 11, MEDIUM_END = 12;
   localparam [1:0] WHICH_FIRST = 0, WHICH_SECOND = 1, WHICH_ROOT = 2;
-  localparam [1:0] KIND_SPHERE = 0, KIND_TRIANGLE = 1, KIND_QUAD = 2, KIND_INSTANCE = 3;
+  localparam [2:0] KIND_SPHERE = 0, KIND_TRIANGLE = 1, KIND_QUAD = 2, KIND_INSTANCE = 3, KIND_MEDIUM = 4, KIND_BOUNDARY_SPHERE = 5;
+  localparam signed [W-1:0] LARGEST = {1'b0, {(W-1){1'b1}}};
 
   reg [NODE_WIDTH-1:0] nodes [0:(1 << NODE_BITS) - 1];
   reg [PRIMITIVE_WIDTH-1:0] primitives [0:(1 << PRIMITIVE_BITS) - 1];
@@ -100,6 +113,15 @@ module traversal_engine #(
   reg [7:0] mesh_base [0:CONTEXTS-1];
   reg [31:0] next_triangle [0:CONTEXTS-1], end_triangle [0:CONTEXTS-1];
   reg found_in_mesh [0:CONTEXTS-1];
+  // Media: the ray's kind and free-flight distances, the optical depth summed, and the medium being walked (its
+  // pieces, the crossings so far, its density term and which distance is its).
+  reg shadow [0:CONTEXTS-1];
+  reg signed [W-1:0] distance0 [0:CONTEXTS-1], distance1 [0:CONTEXTS-1], distance2 [0:CONTEXTS-1], distance3 [0:CONTEXTS-1];
+  reg signed [W-1:0] optical_depth [0:CONTEXTS-1];
+  reg in_medium [0:CONTEXTS-1];
+  reg [31:0] next_piece [0:CONTEXTS-1], end_piece [0:CONTEXTS-1];
+  reg signed [W-1:0] crossing_first [0:CONTEXTS-1], crossing_last [0:CONTEXTS-1], neg_inv_density [0:CONTEXTS-1];
+  reg [1:0] medium_slot [0:CONTEXTS-1];
   reg [31:0] found_triangle [0:CONTEXTS-1];
   reg [95:0] stack [0:CONTEXTS*DEPTH-1];
   reg found [0:CONTEXTS-1];
@@ -116,7 +138,7 @@ module traversal_engine #(
     pick = 0; free_context = 0; done_context = 0;
     for (k = CONTEXTS - 1; k >= 0; k = k - 1) begin
       if (state[k] == ROOT || state[k] == BOX0 || state[k] == BOX1 || state[k] == PRIMITIVE || state[k] == MESH_ROOT ||
-          state[k] == MESH_PRIMITIVE) begin
+          state[k] == MESH_PRIMITIVE || state[k] == MEDIUM_PIECE || state[k] == MEDIUM_END) begin
         pick_valid = 1; pick = k[CONTEXT_BITS-1:0];
       end
       if (state[k] == FREE) begin free_valid = 1; free_context = k[CONTEXT_BITS-1:0]; end
@@ -136,15 +158,21 @@ module traversal_engine #(
   reg [NODE_WIDTH-1:0] node_read;
   reg [PRIMITIVE_WIDTH-1:0] primitive_read;
   wire [31:0] pick_node = state[pick] == ROOT ? 32'd0 : state[pick] == MESH_ROOT ? mesh_root[pick] : state[pick] == BOX0 ? child0[pick] : child1[pick];
-  wire [31:0] pick_primitive = state[pick] == MESH_PRIMITIVE ? next_triangle[pick] : next_primitive[pick];
+  wire [31:0] pick_primitive = state[pick] == MESH_PRIMITIVE ? next_triangle[pick] : state[pick] == MEDIUM_PIECE ? next_piece[pick] : next_primitive[pick];
 
   // ---- Units ----
   // Stage B drives the units from the memory read and the context's ray.
   wire [CONTEXT_BITS-1:0] c = b_context;
-  wire b_primitive = b_valid && (b_kind == PRIMITIVE || b_kind == MESH_PRIMITIVE);
-  wire b_box = b_valid && !b_primitive;
+  wire b_piece = b_valid && b_kind == MEDIUM_PIECE;
+  wire b_primitive = b_valid && (b_kind == PRIMITIVE || b_kind == MESH_PRIMITIVE || b_kind == MEDIUM_PIECE);
+  assign medium_issue = b_valid && b_kind == MEDIUM_END;
+  wire b_box = b_valid && !b_primitive && !medium_issue;
   // A mesh leaf holds triangles only.
-  wire [1:0] b_primitive_kind = b_kind == MESH_PRIMITIVE ? KIND_TRIANGLE : primitive_read[14*W +: 2];
+  wire [2:0] b_primitive_kind = b_kind == MESH_PRIMITIVE ? KIND_TRIANGLE : primitive_read[14*W +: 3];
+  // A medium's boundary piece is met anywhere along the ray's line.
+  wire signed [W-1:0] test_min = b_piece ? -LARGEST : zero, test_max = b_piece ? LARGEST : closest[c];
+  wire crossings_issue = b_primitive && b_primitive_kind == KIND_BOUNDARY_SPHERE;
+  wire begin_medium = b_primitive && b_primitive_kind == KIND_MEDIUM;
   assign box_issue = b_box;
   assign sphere_issue = b_primitive && b_primitive_kind == KIND_SPHERE;
   assign triangle_issue = b_primitive && b_primitive_kind == KIND_TRIANGLE;
@@ -163,6 +191,7 @@ module traversal_engine #(
   // A negative reciprocal meets the hi plane first (make_box_ray).
   wire neg_x = ray_ix[W-1], neg_y = ray_iy[W-1], neg_z = ray_iz[W-1];
   wire signed [W-1:0] zero = 0;
+  wire signed [W-1:0] ray_distance = medium_slot[c] == 0 ? distance0[c] : medium_slot[c] == 1 ? distance1[c] : medium_slot[c] == 2 ? distance2[c] : distance3[c];
 
   wire signed [W-1:0] local_ox, local_oy, local_oz, local_dx, local_dy, local_dz;
   `PT_INSTANCE_RAY_UNIT instance_ray(.clk(clk), .in_valid(instance_issue), .row0_x(field(primitive_read, 0)), .row0_y(field(primitive_read, 1)),
@@ -200,7 +229,7 @@ module traversal_engine #(
                              .p0_z(field(primitive_read, 2)), .edge1_x(field(primitive_read, 3)), .edge1_y(field(primitive_read, 4)),
                              .edge1_z(field(primitive_read, 5)), .edge2_x(field(primitive_read, 6)), .edge2_y(field(primitive_read, 7)),
                              .edge2_z(field(primitive_read, 8)), .origin_x(ray_ox), .origin_y(ray_oy), .origin_z(ray_oz), .direction_x(ray_dx),
-                             .direction_y(ray_dy), .direction_z(ray_dz), .t_min(zero), .t_max(closest[c]), .out_valid(triangle_valid),
+                             .direction_y(ray_dy), .direction_z(ray_dz), .t_min(test_min), .t_max(test_max), .out_valid(triangle_valid),
                              .hit(triangle_hit), .t(triangle_t), .b1(triangle_b1), .b2(triangle_b2));
   wire quad_valid, quad_hit;
   wire signed [W-1:0] quad_t, quad_b1, quad_b2;
@@ -210,12 +239,28 @@ module traversal_engine #(
                      .du_z(field(primitive_read, 8)), .dv_x(field(primitive_read, 9)), .dv_y(field(primitive_read, 10)),
                      .dv_z(field(primitive_read, 11)), .u_extent(field(primitive_read, 12)), .v_extent(field(primitive_read, 13)),
                      .origin_x(ox[c]), .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]), .direction_y(dy[c]), .direction_z(dz[c]),
-                     .t_min(zero), .t_max(closest[c]), .out_valid(quad_valid), .hit(quad_hit), .t(quad_t), .b1(quad_b1), .b2(quad_b2));
+                     .t_min(test_min), .t_max(test_max), .out_valid(quad_valid), .hit(quad_hit), .t(quad_t), .b1(quad_b1), .b2(quad_b2));
+  wire crossings_valid, crossings_hit;
+  wire signed [W-1:0] crossings_near, crossings_far;
+  `PT_CROSSINGS_UNIT crossings(.clk(clk), .in_valid(crossings_issue), .origin_x(ox[c]), .origin_y(oy[c]), .origin_z(oz[c]), .direction_x(dx[c]),
+                               .direction_y(dy[c]), .direction_z(dz[c]), .center_x(field(primitive_read, 0)), .center_y(field(primitive_read, 1)),
+                               .center_z(field(primitive_read, 2)), .radius(field(primitive_read, 3)), .out_valid(crossings_valid),
+                               .hit(crossings_hit), .near(crossings_near), .far(crossings_far));
+  wire medium_valid, medium_hit;
+  wire signed [W-1:0] medium_t, medium_depth;
+  `PT_MEDIUM_UNIT medium_end(.clk(clk), .in_valid(medium_issue), .first(crossing_first[c]), .last(crossing_last[c]), .t_max(closest[c]),
+                             .distance(ray_distance), .neg_inv_density(neg_inv_density[c]), .optical_depth(optical_depth[c]),
+                         .shadow({{(W-1){1'b0}}, shadow[c]}), .out_valid(medium_valid), .hit(medium_hit), .t(medium_t),
+                         .optical_depth_out(medium_depth));
 
   // ---- Tag FIFOs: which context (and for boxes which child) each result in a unit's pipeline belongs to ----
   reg [CONTEXT_BITS+1:0] setup_tags [0:(1 << FIFO_BITS) - 1], box_tags [0:(1 << FIFO_BITS) - 1];
   reg [CONTEXT_BITS+1:0] sphere_tags [0:(1 << FIFO_BITS) - 1], triangle_tags [0:(1 << FIFO_BITS) - 1], quad_tags [0:(1 << FIFO_BITS) - 1];
   reg [CONTEXT_BITS+1:0] instance_tags [0:(1 << FIFO_BITS) - 1];
+  reg [CONTEXT_BITS+1:0] crossings_tags [0:(1 << FIFO_BITS) - 1], medium_tags [0:(1 << FIFO_BITS) - 1];
+  reg [FIFO_BITS-1:0] crossings_in, crossings_out, medium_in, medium_out;
+  wire [CONTEXT_BITS-1:0] crossings_context = crossings_tags[crossings_out][CONTEXT_BITS-1:0];
+  wire [CONTEXT_BITS-1:0] medium_context = medium_tags[medium_out][CONTEXT_BITS-1:0];
   reg [FIFO_BITS-1:0] setup_in, setup_out, box_in, box_out, sphere_in, sphere_out, triangle_in, triangle_out, quad_in, quad_out;
   reg [FIFO_BITS-1:0] instance_in, instance_out;
   wire [CONTEXT_BITS-1:0] setup_context = setup_tags[setup_out][CONTEXT_BITS-1:0];
@@ -283,6 +328,19 @@ module traversal_engine #(
     if (in_mesh[x]) mesh_pop(x);
     else scene_pop(x);
   endtask
+  // A boundary piece's crossings widen the medium's stretch; then its next piece, or the medium unit.
+  task automatic piece_done(input [CONTEXT_BITS-1:0] x, input crosses, input signed [W-1:0] near, input signed [W-1:0] far);
+    if (crosses) begin
+      crossing_first[x] <= near < crossing_first[x] ? near : crossing_first[x];
+      crossing_last[x] <= far > crossing_last[x] ? far : crossing_last[x];
+    end
+    if (next_piece[x] + 1 != end_piece[x]) begin
+      next_piece[x] <= next_piece[x] + 1;
+      state[x] <= MEDIUM_PIECE;
+    end else begin
+      state[x] <= MEDIUM_END;
+    end
+  endtask
   // A primitive's result: the closest hit narrows where it was hit, then the leaf's next primitive or the stack.
   task automatic primitive_done(input [CONTEXT_BITS-1:0] x, input hit, input signed [W-1:0] t, input signed [W-1:0] b1,
                                 input signed [W-1:0] b2);
@@ -315,6 +373,7 @@ module traversal_engine #(
       b_valid <= 0;
       hit_valid <= 0;
       setup_in <= 0; setup_out <= 0; box_in <= 0; box_out <= 0; sphere_in <= 0; sphere_out <= 0; instance_in <= 0; instance_out <= 0;
+      crossings_in <= 0; crossings_out <= 0; medium_in <= 0; medium_out <= 0;
       triangle_in <= 0; triangle_out <= 0; quad_in <= 0; quad_out <= 0;
     end else begin
       if (node_write) nodes[node_address] <= node_data;
@@ -330,6 +389,11 @@ module traversal_engine #(
         closest[free_context] <= t_max;
         depth[free_context] <= 0;
         in_mesh[free_context] <= 0;
+        in_medium[free_context] <= 0;
+        shadow[free_context] <= ray_shadow;
+        optical_depth[free_context] <= 0;
+        distance0[free_context] <= medium_distance_0; distance1[free_context] <= medium_distance_1;
+        distance2[free_context] <= medium_distance_2; distance3[free_context] <= medium_distance_3;
         found[free_context] <= 0;
         box_tests[free_context] <= 0;
         primitive_tests[free_context] <= 0;
@@ -370,12 +434,28 @@ module traversal_engine #(
 
       // Stage B: the test goes into its unit (the unit's inputs are wired above); the context waits for it.
       if (b_valid) begin
-        if (b_primitive) begin
-          primitive_tests[c] <= primitive_tests[c] + 1;
+        if (medium_issue) begin
+          medium_tags[medium_in] <= {2'b0, c};
+          medium_in <= medium_in + 1;
           state[c] <= WAITING;
+        end else if (b_primitive) begin
+          primitive_tests[c] <= primitive_tests[c] + 1;
+          if (!begin_medium) state[c] <= WAITING;
           if (sphere_issue) begin sphere_tags[sphere_in] <= {2'b0, c}; sphere_in <= sphere_in + 1; end
           if (triangle_issue) begin triangle_tags[triangle_in] <= {2'b0, c}; triangle_in <= triangle_in + 1; end
           if (quad_issue) begin quad_tags[quad_in] <= {2'b0, c}; quad_in <= quad_in + 1; end
+          if (crossings_issue) begin crossings_tags[crossings_in] <= {2'b0, c}; crossings_in <= crossings_in + 1; end
+          // A medium: its boundary's pieces next, the stretch inside empty so far.
+          if (begin_medium) begin
+            in_medium[c] <= 1;
+            next_piece[c] <= field(primitive_read, 0);
+            end_piece[c] <= field(primitive_read, 0) + field(primitive_read, 1);
+            neg_inv_density[c] <= field(primitive_read, 2);
+            medium_slot[c] <= field(primitive_read, 3);
+            crossing_first[c] <= LARGEST;
+            crossing_last[c] <= -LARGEST;
+            state[c] <= MEDIUM_PIECE;
+          end
           if (instance_issue) begin
             instance_tags[instance_in] <= {2'b0, c};
             instance_in <= instance_in + 1;
@@ -427,11 +507,25 @@ module traversal_engine #(
       end
       if (triangle_valid) begin
         triangle_out <= triangle_out + 1;
-        primitive_done(triangle_context, triangle_hit, triangle_t, triangle_b1, triangle_b2);
+        if (in_medium[triangle_context]) piece_done(triangle_context, triangle_hit, triangle_t, triangle_t);
+        else primitive_done(triangle_context, triangle_hit, triangle_t, triangle_b1, triangle_b2);
       end
       if (quad_valid) begin
         quad_out <= quad_out + 1;
-        primitive_done(quad_context, quad_hit, quad_t, quad_b1, quad_b2);
+        if (in_medium[quad_context]) piece_done(quad_context, quad_hit, quad_t, quad_t);
+        else primitive_done(quad_context, quad_hit, quad_t, quad_b1, quad_b2);
+      end
+      if (crossings_valid) begin
+        crossings_out <= crossings_out + 1;
+        piece_done(crossings_context, crossings_hit, crossings_near, crossings_far);
+      end
+      // The medium's end: a scattering inside narrows the closest hit (as a primitive's hit), a shadow ray's optical
+      // depth grows; then the scene's leaf goes on.
+      if (medium_valid) begin
+        medium_out <= medium_out + 1;
+        in_medium[medium_context] <= 0;
+        optical_depth[medium_context] <= medium_depth;
+        primitive_done(medium_context, medium_hit, medium_t, zero, zero);
       end
 
       // A finished ray leaves, and its context is free.
@@ -445,6 +539,7 @@ module traversal_engine #(
         hit_primitive <= found_primitive[done_context];
         hit_in_mesh <= found_in_mesh[done_context];
         hit_triangle <= found_triangle[done_context];
+        hit_optical_depth <= optical_depth[done_context];
         hit_box_tests <= box_tests[done_context];
         hit_primitive_tests <= primitive_tests[done_context];
         state[done_context] <= FREE;
