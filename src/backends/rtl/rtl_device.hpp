@@ -69,8 +69,8 @@ class RtlDevice {
 
   std::string kind() const { return "rtl"; }
   std::string description() const {
-    return fmt::format("traversal engine in Q{}.{}, {} rays in flight, cycle-accurate model; other stages on {}", T::kIntegerBits, T::kFractionBits, 32,
-                       cpu_.description());
+    return fmt::format("traversal engine in Q{}.{}, {} rays in flight, cycle-accurate model; other stages on {}", T::kIntegerBits, T::kFractionBits,
+                       model_->context_count, cpu_.description());
   }
   bool host() const { return true; }
   Integrator preferred_integrator() const { return Integrator::kWavefront; }
@@ -195,9 +195,9 @@ class RtlDevice {
   std::vector<std::string> report() const {
     const EngineCounters& c = counters_;
     const u64 rays = c.primary.rays + c.bounce.rays + c.shadow.rays;
-    std::vector<std::string> lines{fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box {:.1f}%, sphere {:.1f}%, "
+    std::vector<std::string> lines{fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box (two) {:.1f}%, sphere {:.1f}%, "
                                                "triangle {:.1f}%, quad {:.1f}%, instance {:.1f}%, medium {:.1f}%",
-                                               rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues), share(c.sphere_issues),
+                                               rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues) / 2, share(c.sphere_issues),
                                                share(c.triangle_issues), share(c.quad_issues), share(c.instance_issues), share(c.medium_issues))};
     for (const auto& [name, tally] : {std::pair{"primary", &c.primary}, std::pair{"bounce", &c.bounce}, std::pair{"shadow", &c.shadow}}) {
       const double n = std::max<double>(1, tally->rays);
@@ -388,7 +388,7 @@ class RtlDevice {
       m.clk = 0;
       m.eval();
       const bool accepted = m.ray_valid && m.ray_ready;
-      counters_.box_issues += m.box_issue;
+      counters_.box_issues += m.box_issue + m.second_box_issue;
       counters_.sphere_issues += m.sphere_issue;
       counters_.triangle_issues += m.triangle_issue;
       counters_.quad_issues += m.quad_issue;

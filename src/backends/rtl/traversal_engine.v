@@ -2,14 +2,15 @@
 // primitive tests of SceneLeaf) as hardware, with many rays in flight. Its arithmetic is the generated units'
 // (tools/hardware/units.py --engine-units, which `define the unit modules named below); this file is the control.
 //
-// Each ray lives in a context: its ray and reciprocal direction, the closest hit so far, a 64-entry stack and where
-// its walk stands. Every clock the scheduler picks one context that has a test to issue (the lowest-numbered),
-// reads the node or primitive it needs from on-chip memory (one clock), and issues the test to its unit the clock
-// after; the result comes back through the unit's pipeline, tagged with the context in a FIFO (the units keep
-// order), and moves that context on. A context thus walks exactly as walk_binary does: the root's box first, then
-// at an inner node both children's boxes, the nearer entered first and the other pushed (the first child where the
-// entries are equal), a leaf's primitives one after another, each tested against the closest hit so far, so that
-// hits at equal distances resolve as in the kernel. The many contexts keep the pipelines busy meanwhile, in the
+// Each ray lives in a context: its ray and reciprocal direction, the closest hit so far, a stack and where its walk
+// stands. Every clock two schedulers each pick a context (the lowest-numbered) that has a test to issue: one a box
+// test (an inner node's two children, read from the node memory's two ports and tested by two box units at once,
+// or a root's box), the other a primitive test (from the primitive memory). The read takes one clock and the test
+// enters its unit the clock after; the result comes back through the unit's pipeline, tagged with the context in a
+// FIFO (the units keep order), and moves that context on. A context thus walks exactly as walk_binary does: the
+// root's box first, then at an inner node both children's boxes, the nearer entered first and the other pushed (the
+// first child where the entries are equal), a leaf's primitives one after another, each tested against the closest
+// hit so far, so that hits at equal distances resolve as in the kernel. The many contexts keep the pipelines busy meanwhile, in the
 // manner of the multithreaded ray processors (Woop, Schmittler and Slusallek 2005; TRaX).
 //
 // A mesh instance (intersect_instance) takes the ray into the mesh's space (the instance-ray unit), gives it its own
@@ -34,7 +35,7 @@
 `default_nettype none
 module traversal_engine #(
   parameter W = `PT_ENGINE_WORD,      // bits of a fixed-point value
-  parameter CONTEXT_BITS = 5,         // 2^CONTEXT_BITS rays in flight
+  parameter CONTEXT_BITS = 6,         // 2^CONTEXT_BITS rays in flight
   parameter NODE_BITS = 16,           // node memory: 2^NODE_BITS entries
   parameter PRIMITIVE_BITS = 16,      // primitive memory: 2^PRIMITIVE_BITS entries
   parameter NODE_WIDTH = 6 * W + 64,
@@ -70,19 +71,20 @@ module traversal_engine #(
   output reg [15:0] hit_box_tests,
   output reg [15:0] hit_primitive_tests,
   // Which units take a test this clock (for utilisation).
-  output wire box_issue,
+  output wire box_issue,               // a root's box test, or the first of an inner node's two
+  output wire second_box_issue,        // the second
   output wire sphere_issue,
   output wire triangle_issue,
   output wire quad_issue,
   output wire instance_issue,
+  output wire [15:0] context_count,    // rays in flight at most
   output wire medium_issue
 );
   localparam CONTEXTS = 1 << CONTEXT_BITS;
   localparam DEPTH = 128;  // kBvhMaxDepth for the scene's walk and as much for a mesh's above it
   localparam FIFO_BITS = 7;  // tags in flight per unit: more than the deepest unit's latency
-  localparam [3:0] FREE = 0, SETUP = 1, ROOT = 2, BOX0 = 3, BOX1 = 4, PRIMITIVE = 5, ISSUING = 6, WAITING = 7, DONE = 8,
+  localparam [3:0] FREE = 0, SETUP = 1, ROOT = 2, CHILDREN = 3, PRIMITIVE = 5, ISSUING = 6, WAITING = 7, DONE = 8,
                    MESH_ROOT = 9, MESH_PRIMITIVE = 10, MEDIUM_PIECE = 11, MEDIUM_END = 12;
-  localparam [1:0] WHICH_FIRST = 0, WHICH_SECOND = 1, WHICH_ROOT = 2;
   localparam [2:0] KIND_SPHERE = 0, KIND_TRIANGLE = 1, KIND_QUAD = 2, KIND_INSTANCE = 3, KIND_MEDIUM = 4, KIND_BOUNDARY_SPHERE = 5;
   localparam signed [W-1:0] LARGEST = {1'b0, {(W-1){1'b1}}};
 
@@ -100,8 +102,6 @@ module traversal_engine #(
   reg [31:0] child0 [0:CONTEXTS-1], child1 [0:CONTEXTS-1];  // the inner node's children: index + 1, left_first
   reg [31:0] next_primitive [0:CONTEXTS-1], end_primitive [0:CONTEXTS-1];
   reg [95:0] header0 [0:CONTEXTS-1], header1 [0:CONTEXTS-1];  // tested children as {index, count, left_first}
-  reg first_hit [0:CONTEXTS-1];
-  reg signed [W-1:0] first_entry [0:CONTEXTS-1];
   reg [7:0] depth [0:CONTEXTS-1];
   // In a mesh instance: the ray in the mesh's space, the instance, the mesh's root, the depth its walk began at,
   // and the mesh leaf's triangles.
@@ -129,17 +129,19 @@ module traversal_engine #(
   reg [31:0] found_primitive [0:CONTEXTS-1];
   reg [15:0] box_tests [0:CONTEXTS-1], primitive_tests [0:CONTEXTS-1];
 
-  // ---- Picks: the lowest-numbered context ready to issue, free, and done ----
-  reg pick_valid, free_valid, done_valid;
-  reg [CONTEXT_BITS-1:0] pick, free_context, done_context;
+  // ---- Picks: the lowest-numbered context with a box test to issue, with a primitive test, free, and done ----
+  reg box_pick_valid, primitive_pick_valid, free_valid, done_valid;
+  reg [CONTEXT_BITS-1:0] box_pick, primitive_pick, free_context, done_context;
   integer k;
   always @* begin
-    pick_valid = 0; free_valid = 0; done_valid = 0;
-    pick = 0; free_context = 0; done_context = 0;
+    box_pick_valid = 0; primitive_pick_valid = 0; free_valid = 0; done_valid = 0;
+    box_pick = 0; primitive_pick = 0; free_context = 0; done_context = 0;
     for (k = CONTEXTS - 1; k >= 0; k = k - 1) begin
-      if (state[k] == ROOT || state[k] == BOX0 || state[k] == BOX1 || state[k] == PRIMITIVE || state[k] == MESH_ROOT ||
-          state[k] == MESH_PRIMITIVE || state[k] == MEDIUM_PIECE || state[k] == MEDIUM_END) begin
-        pick_valid = 1; pick = k[CONTEXT_BITS-1:0];
+      if (state[k] == ROOT || state[k] == CHILDREN || state[k] == MESH_ROOT) begin
+        box_pick_valid = 1; box_pick = k[CONTEXT_BITS-1:0];
+      end
+      if (state[k] == PRIMITIVE || state[k] == MESH_PRIMITIVE || state[k] == MEDIUM_PIECE || state[k] == MEDIUM_END) begin
+        primitive_pick_valid = 1; primitive_pick = k[CONTEXT_BITS-1:0];
       end
       if (state[k] == FREE) begin free_valid = 1; free_context = k[CONTEXT_BITS-1:0]; end
       if (state[k] == DONE) begin done_valid = 1; done_context = k[CONTEXT_BITS-1:0]; end
@@ -150,30 +152,37 @@ module traversal_engine #(
   assign ray_ready = free_valid && !reset && !instance_valid;
   wire accept = ray_valid && ray_ready;
 
-  // ---- Stage A -> B: the memory read for the picked context ----
-  reg b_valid;
-  reg [CONTEXT_BITS-1:0] b_context;
-  reg [3:0] b_kind;
-  reg [31:0] b_index;
-  reg [NODE_WIDTH-1:0] node_read;
+  // ---- Stage A -> B: the memory reads for the picked contexts ----
+  reg bb_valid, b_valid;
+  reg [CONTEXT_BITS-1:0] bb_context, b_context;
+  reg [3:0] bb_kind, b_kind;
+  reg [31:0] bb_index0, bb_index1;
+  reg [NODE_WIDTH-1:0] node_read0, node_read1;
   reg [PRIMITIVE_WIDTH-1:0] primitive_read;
-  wire [31:0] pick_node = state[pick] == ROOT ? 32'd0 : state[pick] == MESH_ROOT ? mesh_root[pick] : state[pick] == BOX0 ? child0[pick] : child1[pick];
-  wire [31:0] pick_primitive = state[pick] == MESH_PRIMITIVE ? next_triangle[pick] : state[pick] == MEDIUM_PIECE ? next_piece[pick] : next_primitive[pick];
+  wire [31:0] pick_node0 = state[box_pick] == ROOT ? 32'd0 : state[box_pick] == MESH_ROOT ? mesh_root[box_pick] : child0[box_pick];
+  wire [31:0] pick_node1 = child1[box_pick];
+  wire [31:0] pick_primitive = state[primitive_pick] == MESH_PRIMITIVE ? next_triangle[primitive_pick]
+                             : state[primitive_pick] == MEDIUM_PIECE ? next_piece[primitive_pick] : next_primitive[primitive_pick];
 
   // ---- Units ----
-  // Stage B drives the units from the memory read and the context's ray.
+  // Stage B drives the units from the memory reads and the contexts' rays: the box units from the box scheduler's
+  // context (cb), the others from the primitive scheduler's (c).
   wire [CONTEXT_BITS-1:0] c = b_context;
+  wire [CONTEXT_BITS-1:0] cb = bb_context;
   wire b_piece = b_valid && b_kind == MEDIUM_PIECE;
   wire b_primitive = b_valid && (b_kind == PRIMITIVE || b_kind == MESH_PRIMITIVE || b_kind == MEDIUM_PIECE);
   assign medium_issue = b_valid && b_kind == MEDIUM_END;
-  wire b_box = b_valid && !b_primitive && !medium_issue;
+  wire b_box = bb_valid;
+  wire b_pair = bb_valid && bb_kind == CHILDREN;
   // A mesh leaf holds triangles only.
   wire [2:0] b_primitive_kind = b_kind == MESH_PRIMITIVE ? KIND_TRIANGLE : primitive_read[14*W +: 3];
   // A medium's boundary piece is met anywhere along the ray's line.
   wire signed [W-1:0] test_min = b_piece ? -LARGEST : zero, test_max = b_piece ? LARGEST : closest[c];
   wire crossings_issue = b_primitive && b_primitive_kind == KIND_BOUNDARY_SPHERE;
   wire begin_medium = b_primitive && b_primitive_kind == KIND_MEDIUM;
+  assign context_count = CONTEXTS;
   assign box_issue = b_box;
+  assign second_box_issue = b_pair;
   assign sphere_issue = b_primitive && b_primitive_kind == KIND_SPHERE;
   assign triangle_issue = b_primitive && b_primitive_kind == KIND_TRIANGLE;
   assign quad_issue = b_primitive && b_primitive_kind == KIND_QUAD;
@@ -187,9 +196,10 @@ module traversal_engine #(
   // The ray the context walks with: the world's, or in a mesh instance the mesh space's.
   wire signed [W-1:0] ray_ox = in_mesh[c] ? lx[c] : ox[c], ray_oy = in_mesh[c] ? ly[c] : oy[c], ray_oz = in_mesh[c] ? lz[c] : oz[c];
   wire signed [W-1:0] ray_dx = in_mesh[c] ? ldx[c] : dx[c], ray_dy = in_mesh[c] ? ldy[c] : dy[c], ray_dz = in_mesh[c] ? ldz[c] : dz[c];
-  wire signed [W-1:0] ray_ix = in_mesh[c] ? lix[c] : ix[c], ray_iy = in_mesh[c] ? liy[c] : iy[c], ray_iz = in_mesh[c] ? liz[c] : iz[c];
+  wire signed [W-1:0] box_ox = in_mesh[cb] ? lx[cb] : ox[cb], box_oy = in_mesh[cb] ? ly[cb] : oy[cb], box_oz = in_mesh[cb] ? lz[cb] : oz[cb];
+  wire signed [W-1:0] box_ix = in_mesh[cb] ? lix[cb] : ix[cb], box_iy = in_mesh[cb] ? liy[cb] : iy[cb], box_iz = in_mesh[cb] ? liz[cb] : iz[cb];
   // A negative reciprocal meets the hi plane first (make_box_ray).
-  wire neg_x = ray_ix[W-1], neg_y = ray_iy[W-1], neg_z = ray_iz[W-1];
+  wire neg_x = box_ix[W-1], neg_y = box_iy[W-1], neg_z = box_iz[W-1];
   wire signed [W-1:0] zero = 0;
   wire signed [W-1:0] ray_distance = medium_slot[c] == 0 ? distance0[c] : medium_slot[c] == 1 ? distance1[c] : medium_slot[c] == 2 ? distance2[c] : distance3[c];
 
@@ -207,14 +217,21 @@ module traversal_engine #(
   `PT_RAY_SETUP_UNIT ray_setup(.clk(clk), .in_valid(accept || instance_valid), .direction_x(instance_valid ? local_dx : direction_x),
                                .direction_y(instance_valid ? local_dy : direction_y), .direction_z(instance_valid ? local_dz : direction_z),
                                .out_valid(setup_valid), .inv_x(setup_x), .inv_y(setup_y), .inv_z(setup_z));
-  wire box_valid, box_hit;
-  wire signed [W-1:0] box_entry;
-  `PT_BOX_UNIT box(.clk(clk), .in_valid(b_box), .inv_direction_x(ray_ix), .inv_direction_y(ray_iy), .inv_direction_z(ray_iz),
-                   .origin_term_x(ray_ox), .origin_term_y(ray_oy), .origin_term_z(ray_oz),
-                   .near_bound_x(bound(node_read, neg_x ? 3 : 0)), .near_bound_y(bound(node_read, neg_y ? 4 : 1)),
-                   .near_bound_z(bound(node_read, neg_z ? 5 : 2)), .far_bound_x(bound(node_read, neg_x ? 0 : 3)),
-                   .far_bound_y(bound(node_read, neg_y ? 1 : 4)), .far_bound_z(bound(node_read, neg_z ? 2 : 5)),
-                   .t_min(zero), .t_max(closest[c]), .out_valid(box_valid), .hit(box_hit), .t_entry(box_entry));
+  wire box_valid, box_hit, second_box_valid, second_box_hit;
+  wire signed [W-1:0] box_entry, second_box_entry;
+  `PT_BOX_UNIT box(.clk(clk), .in_valid(b_box), .inv_direction_x(box_ix), .inv_direction_y(box_iy), .inv_direction_z(box_iz),
+                   .origin_term_x(box_ox), .origin_term_y(box_oy), .origin_term_z(box_oz),
+                   .near_bound_x(bound(node_read0, neg_x ? 3 : 0)), .near_bound_y(bound(node_read0, neg_y ? 4 : 1)),
+                   .near_bound_z(bound(node_read0, neg_z ? 5 : 2)), .far_bound_x(bound(node_read0, neg_x ? 0 : 3)),
+                   .far_bound_y(bound(node_read0, neg_y ? 1 : 4)), .far_bound_z(bound(node_read0, neg_z ? 2 : 5)),
+                   .t_min(zero), .t_max(closest[cb]), .out_valid(box_valid), .hit(box_hit), .t_entry(box_entry));
+  `PT_BOX_UNIT second_box(.clk(clk), .in_valid(b_pair), .inv_direction_x(box_ix), .inv_direction_y(box_iy), .inv_direction_z(box_iz),
+                          .origin_term_x(box_ox), .origin_term_y(box_oy), .origin_term_z(box_oz),
+                          .near_bound_x(bound(node_read1, neg_x ? 3 : 0)), .near_bound_y(bound(node_read1, neg_y ? 4 : 1)),
+                          .near_bound_z(bound(node_read1, neg_z ? 5 : 2)), .far_bound_x(bound(node_read1, neg_x ? 0 : 3)),
+                          .far_bound_y(bound(node_read1, neg_y ? 1 : 4)), .far_bound_z(bound(node_read1, neg_z ? 2 : 5)),
+                          .t_min(zero), .t_max(closest[cb]), .out_valid(second_box_valid), .hit(second_box_hit),
+                          .t_entry(second_box_entry));
   wire sphere_valid, sphere_hit;
   wire signed [W-1:0] sphere_t, sphere_b1, sphere_b2;
   `PT_SPHERE_UNIT sphere(.clk(clk), .in_valid(sphere_issue), .center0_x(field(primitive_read, 0)), .center0_y(field(primitive_read, 1)),
@@ -267,7 +284,7 @@ module traversal_engine #(
   wire setup_for_instance = setup_tags[setup_out][CONTEXT_BITS];
   wire [CONTEXT_BITS-1:0] instance_context = instance_tags[instance_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] box_context = box_tags[box_out][CONTEXT_BITS-1:0];
-  wire [1:0] box_which = box_tags[box_out][CONTEXT_BITS +: 2];
+  wire box_root = box_tags[box_out][CONTEXT_BITS];  // a root's test (else an inner node's pair)
   wire [CONTEXT_BITS-1:0] sphere_context = sphere_tags[sphere_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] triangle_context = triangle_tags[triangle_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] quad_context = quad_tags[quad_out][CONTEXT_BITS-1:0];
@@ -286,7 +303,7 @@ module traversal_engine #(
     end else begin
       child0[x] <= header[95:64] + 1;
       child1[x] <= header[31:0];
-      state[x] <= BOX0;
+      state[x] <= CHILDREN;
     end
   endtask
   function automatic [CONTEXT_BITS+6:0] stack_slot(input [CONTEXT_BITS-1:0] x, input [7:0] level);
@@ -302,7 +319,7 @@ module traversal_engine #(
       end_primitive[x] <= stack[stack_slot(x, depth[x] - 1)][31:0] + stack[stack_slot(x, depth[x] - 1)][63:32];
       child0[x] <= stack[stack_slot(x, depth[x] - 1)][95:64] + 1;
       child1[x] <= stack[stack_slot(x, depth[x] - 1)][31:0];
-      state[x] <= stack[stack_slot(x, depth[x] - 1)][63:32] != 0 ? PRIMITIVE : BOX0;
+      state[x] <= stack[stack_slot(x, depth[x] - 1)][63:32] != 0 ? PRIMITIVE : CHILDREN;
     end
   endtask
   // The scene's leaf goes on after a primitive: its next one, or the stack.
@@ -371,6 +388,7 @@ module traversal_engine #(
     if (reset) begin
       for (k = 0; k < CONTEXTS; k = k + 1) state[k] <= FREE;
       b_valid <= 0;
+      bb_valid <= 0;
       hit_valid <= 0;
       setup_in <= 0; setup_out <= 0; box_in <= 0; box_out <= 0; sphere_in <= 0; sphere_out <= 0; instance_in <= 0; instance_out <= 0;
       crossings_in <= 0; crossings_out <= 0; medium_in <= 0; medium_out <= 0;
@@ -421,15 +439,23 @@ module traversal_engine #(
         setup_out <= setup_out + 1;
       end
 
-      // Stage A: the picked context's node or primitive read.
-      b_valid <= pick_valid;
-      if (pick_valid) begin
-        b_context <= pick;
-        b_kind <= state[pick];
-        b_index <= pick_node;
-        node_read <= nodes[pick_node[NODE_BITS-1:0]];
+      // Stage A: the picked contexts' node and primitive reads.
+      bb_valid <= box_pick_valid;
+      if (box_pick_valid) begin
+        bb_context <= box_pick;
+        bb_kind <= state[box_pick];
+        bb_index0 <= pick_node0;
+        bb_index1 <= pick_node1;
+        node_read0 <= nodes[pick_node0[NODE_BITS-1:0]];
+        node_read1 <= nodes[pick_node1[NODE_BITS-1:0]];
+        state[box_pick] <= ISSUING;
+      end
+      b_valid <= primitive_pick_valid;
+      if (primitive_pick_valid) begin
+        b_context <= primitive_pick;
+        b_kind <= state[primitive_pick];
         primitive_read <= primitives[pick_primitive[PRIMITIVE_BITS-1:0]];
-        state[pick] <= ISSUING;
+        state[primitive_pick] <= ISSUING;
       end
 
       // Stage B: the test goes into its unit (the unit's inputs are wired above); the context waits for it.
@@ -461,30 +487,28 @@ module traversal_engine #(
             instance_in <= instance_in + 1;
             mesh_root[c] <= field(primitive_read, 12);
           end
-        end else begin
-          box_tests[c] <= box_tests[c] + 1;
-          box_tags[box_in] <= {b_kind == BOX1 ? WHICH_SECOND : b_kind == BOX0 ? WHICH_FIRST : WHICH_ROOT, c};  // ROOT, MESH_ROOT
-          box_in <= box_in + 1;
-          if (b_kind == BOX1) header1[c] <= {b_index, node_read[6*W+32 +: 32], node_read[6*W +: 32]};
-          else header0[c] <= {b_index, node_read[6*W+32 +: 32], node_read[6*W +: 32]};
-          state[c] <= b_kind == BOX0 ? BOX1 : WAITING;
         end
       end
+      if (bb_valid) begin
+        box_tests[cb] <= box_tests[cb] + (b_pair ? 2 : 1);
+        box_tags[box_in] <= {1'b0, !b_pair, cb};
+        box_in <= box_in + 1;
+        header0[cb] <= {bb_index0, node_read0[6*W+32 +: 32], node_read0[6*W +: 32]};
+        header1[cb] <= {bb_index1, node_read1[6*W+32 +: 32], node_read1[6*W +: 32]};
+        state[cb] <= WAITING;
+      end
 
-      // Box results: the root's decides whether the walk starts; an inner node's second decides where it goes.
+      // Box results: the root's decides whether the walk starts; an inner node's pair where it goes.
       if (box_valid) begin
         box_out <= box_out + 1;
-        if (box_which == WHICH_ROOT) begin
+        if (box_root) begin
           // A mesh's root missed: the instance is done (mesh_pop at the depth it began at).
           if (box_hit) enter(box_context, header0[box_context]);
           else if (in_mesh[box_context]) mesh_pop(box_context);
           else state[box_context] <= DONE;
-        end else if (box_which == WHICH_FIRST) begin
-          first_hit[box_context] <= box_hit;
-          first_entry[box_context] <= box_entry;
-        end else if (first_hit[box_context] && box_hit) begin
+        end else if (box_hit && second_box_hit) begin
           // The nearer child next, the other pushed; the first where the entries are equal (walk_binary).
-          if (box_entry < first_entry[box_context]) begin
+          if (second_box_entry < box_entry) begin
             near_header = header1[box_context]; far_header = header0[box_context];
           end else begin
             near_header = header0[box_context]; far_header = header1[box_context];
@@ -492,9 +516,9 @@ module traversal_engine #(
           stack[stack_slot(box_context, depth[box_context])] <= far_header;
           depth[box_context] <= depth[box_context] + 1;
           enter(box_context, near_header);
-        end else if (first_hit[box_context]) begin
-          enter(box_context, header0[box_context]);
         end else if (box_hit) begin
+          enter(box_context, header0[box_context]);
+        end else if (second_box_hit) begin
           enter(box_context, header1[box_context]);
         end else begin
           pop(box_context);
