@@ -38,17 +38,17 @@ template <class T>
 struct EngineQuery {
   Ray<T> ray;
   T t_max;
-  bool shadow;                     // media add their optical depth to it instead of scattering it
-  std::array<T, 4> free_flights;   // a path ray's free-flight distance in each medium (RtlDevice::medium_slots_)
+  bool shadow;                    // media add their optical depth to it instead of scattering it
+  std::array<T, 4> free_flights;  // a path ray's free-flight distance in each medium, in RtlDevice::media_ order
   EngineTally* tally;
 };
 
 struct EngineAnswer {
   bool found;
   u32 primitive;
-  u32 triangle;  // a mesh triangle's index in MeshData::triangles, else 0
+  u32 triangle;                // a mesh triangle's index in MeshData::triangles, else 0
   std::int64_t optical_depth;  // raw: a shadow ray's, summed over the media it crossed
-  std::int64_t t, b1, b2;  // raw fixed-point values
+  std::int64_t t, b1, b2;      // raw fixed-point values
 };
 
 // Model: the Verilated engine in T's format (Vtraversal_engine_qI_F).
@@ -114,8 +114,10 @@ class RtlDevice {
       if (const auto* instance = std::get_if<MeshInstance<T>>(&shape)) placed.push_back(instance->mesh);
       if (const auto* medium = std::get_if<ConstantMedium<T>>(&shape)) {
         if (media_.size() == kMediumSlots)
-          throw BackendError(fmt::format("the scene has more than {} constant media (primitive {}); the traversal engine takes {} free-flight distances "
-                                         "a ray", kMediumSlots, i, kMediumSlots));
+          throw BackendError(
+              fmt::format("the scene has more than {} constant media (primitive {}); the traversal engine takes {} free-flight distances "
+                          "a ray",
+                          kMediumSlots, i, kMediumSlots));
         if (medium->boundary_count == 0) throw BackendError(fmt::format("the constant medium of primitive {} has no boundary", i));
         media_.push_back(MediumSlot{i, medium->neg_inv_density});
         boundaries = std::max(boundaries, medium->first_boundary + medium->boundary_count);
@@ -131,8 +133,10 @@ class RtlDevice {
     }
     node_base_ = own.nodes;
     triangle_base_ = own.primitives;
+    node_count_ = own.nodes + meshes.nodes;
     const u32 boundary_base = own.primitives + meshes.primitives;
     const u64 nodes = u64{own.nodes} + meshes.nodes, primitives = u64{boundary_base} + boundaries;
+    primitive_count_ = primitives;
     if (nodes > (1u << kNodeBits) || primitives > (1u << kPrimitiveBits))
       throw BackendError(fmt::format("the scene has {} BVH nodes and {} primitives and mesh triangles; the traversal engine holds {} of each", nodes,
                                      primitives, 1u << kNodeBits));
@@ -184,9 +188,10 @@ class RtlDevice {
       if (std::holds_alternative<Sphere<T>>(piece))
         kind = 5;
       else if (!std::holds_alternative<Quad<T>>(piece) && !std::holds_alternative<Triangle<T>>(piece))
-        throw BackendError(fmt::format("a constant medium's boundary piece {} is neither a sphere, a quad nor a triangle: the traversal engine "
-                                       "does not hold it",
-                                       i));
+        throw BackendError(
+            fmt::format("a constant medium's boundary piece {} is neither a sphere, a quad nor a triangle: the traversal engine "
+                        "does not hold it",
+                        i));
       load_primitive(boundary_base + i, kind, fields);
     }
   }
@@ -195,15 +200,18 @@ class RtlDevice {
   std::vector<std::string> report() const {
     const EngineCounters& c = counters_;
     const u64 rays = c.primary.rays + c.bounce.rays + c.shadow.rays;
-    std::vector<std::string> lines{fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box (two) {:.1f}%, sphere {:.1f}%, "
-                                               "triangle {:.1f}%, quad {:.1f}%, instance {:.1f}%, medium {:.1f}%",
-                                               rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues) / 2, share(c.sphere_issues),
-                                               share(c.triangle_issues), share(c.quad_issues), share(c.instance_issues), share(c.medium_issues))};
+    std::vector<std::string> lines{
+        fmt::format("traversal engine: {} rays in {} clocks, {:.3f} rays a clock; units busy: box (two) {:.1f}%, sphere {:.1f}%, "
+                    "triangle {:.1f}%, quad {:.1f}%, instance {:.1f}%, medium {:.1f}%",
+                    rays, c.clocks, rays / std::max(1.0, double(c.clocks)), share(c.box_issues) / 2, share(c.sphere_issues), share(c.triangle_issues),
+                    share(c.quad_issues), share(c.instance_issues), share(c.medium_issues))};
     for (const auto& [name, tally] : {std::pair{"primary", &c.primary}, std::pair{"bounce", &c.bounce}, std::pair{"shadow", &c.shadow}}) {
       const double n = std::max<double>(1, tally->rays);
       lines.push_back(fmt::format("  {} rays: {}, {:.1f} clocks each in the engine, {:.1f} box and {:.1f} primitive tests each", name, tally->rays,
                                   tally->latency_clocks / n, tally->box_tests / n, tally->primitive_tests / n));
     }
+    lines.push_back(fmt::format("  scene memory: {} of {} nodes, {} of {} primitives (mesh triangles and media boundaries included)", node_count_,
+                                1u << kNodeBits, primitive_count_, 1u << kPrimitiveBits));
     return lines;
   }
 
@@ -354,9 +362,9 @@ class RtlDevice {
       if (i < paths)
         wavefront_queue_hit(w, scene, i, a.found, hit);
       else
-        wavefront_add_shadow(w, i - paths,
-                             shadow_contribution_found(scene, shadow_rays[i - paths], a.found, hit,
-                                                       T::from_raw(static_cast<typename T::Storage>(a.optical_depth))));
+        wavefront_add_shadow(
+            w, i - paths,
+            shadow_contribution_found(scene, shadow_rays[i - paths], a.found, hit, T::from_raw(static_cast<typename T::Storage>(a.optical_depth))));
     }
   }
 
@@ -400,8 +408,12 @@ class RtlDevice {
       if (accepted) entered_[next++] = counters_.clocks;
       if (m.hit_valid) {
         const u32 id = m.hit_id;
-        answers_[id] = EngineAnswer{m.hit_found != 0,        m.hit_primitive,          m.hit_in_mesh ? m.hit_triangle - triangle_base_ : 0u,
-                                    from_word(m.hit_optical_depth).raw, from_word(m.hit_t).raw, from_word(m.hit_b1).raw,
+        answers_[id] = EngineAnswer{m.hit_found != 0,
+                                    m.hit_primitive,
+                                    m.hit_in_mesh ? m.hit_triangle - triangle_base_ : 0u,
+                                    from_word(m.hit_optical_depth).raw,
+                                    from_word(m.hit_t).raw,
+                                    from_word(m.hit_b1).raw,
                                     from_word(m.hit_b2).raw};
         EngineTally& tally = *queries[id].tally;
         ++tally.rays;
@@ -417,6 +429,7 @@ class RtlDevice {
   CpuDevice cpu_;
   std::unique_ptr<Model> model_;
   u32 node_base_ = 0, triangle_base_ = 0;  // where the meshes' nodes and triangles begin in the engine's memories
+  u64 node_count_ = 0, primitive_count_ = 0;  // the scene's share of them
   struct MediumSlot {
     u32 primitive;
     T neg_inv_density;
