@@ -79,7 +79,8 @@ def control(work: Path, units_file: Path, context_bits: int, memory_bits: int, t
         stub_file.write_text(stubs(units_file.read_text()))
         log = work / f"control_{context_bits}.sta.log"
         if not log.exists() or latest_arrival(log) is None:
-            yosys(f"read_verilog {stub_file}; read_verilog {ENGINE}; {chparam}; synth_xilinx -family xc7 -abc9 -top traversal_engine; "
+            # Without -abc9: Yosys 0.23's abc9 stops on an assertion in this design; the LUTs then carry the library's delays.
+            yosys(f"read_verilog {stub_file}; read_verilog {ENGINE}; {chparam}; synth_xilinx -family xc7 -top traversal_engine; "
                   "read_verilog -lib -specify +/xilinx/cells_sim.v; sta", log, timeout)
         row["arrival_ps"] = latest_arrival(log)
     return row
