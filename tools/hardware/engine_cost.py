@@ -19,16 +19,13 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from synth import count  # noqa: E402
 from units import ENGINE_UNITS, build, engine_units  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 ENGINE = ROOT / "src" / "backends" / "rtl" / "traversal_engine.v"
 # How many of each unit the engine instantiates (two box units test an inner node's children together).
 UNIT_COUNT = {"box": 2}
-
-
-def count(cells: dict, pattern: str) -> int:
-    return sum(n for name, n in cells.items() if re.fullmatch(pattern, name))
 
 
 def yosys(script: str, log: Path, timeout: float) -> None:
