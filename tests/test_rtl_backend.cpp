@@ -109,6 +109,12 @@ TEST(RtlBackendCommand, WritesTheCpuWavefrontsFileAndSaysWhatTheEngineDid) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(RtlBackendRefuses, SeveralDevicesRatherThanRenderingOnTheCpu) {
+  EXPECT_THROW(parse_device_list("all", "rtl"), InputError);
+  EXPECT_THROW(parse_device_list("0,cpu", "rtl"), InputError);
+  EXPECT_EQ(parse_device_list("0", "rtl").entries.size(), 1u);
+}
+
 TEST(RtlBackendRefuses, AFloatRenderWithOneLineAndExitCodeOne) {
   const std::string command = test::pathtracer_binary() + " render " + test::scene_path("cornell-box.json").string() +
                               " --backend rtl --width 8 --height 8 --spp 1 -o /tmp/pt-rtl-refused.png 2>&1";

@@ -97,6 +97,9 @@ int local_rank() {
 }  // namespace
 
 DeviceList parse_device_list(const std::string& text, const std::string& backend) {
+  // The rtl backend has one device, its engine's model: several would silently have been CPU devices.
+  if (backend == "rtl" && text != "0")
+    throw InputError(fmt::format("--device {}: the rtl backend has one device, its traversal engine (0)", text));
   const bool cpu_only = backend == "cpu" || (backend == "auto" && gpu_count(backend) == 0);
   DeviceList list;
   if (text == "all") {
