@@ -10,8 +10,8 @@
 // FIFO (the units keep order), and moves that context on. A context thus walks exactly as walk_binary does: the
 // root's box first, then at an inner node both children's boxes, the nearer entered first and the other pushed (the
 // first child where the entries are equal), a leaf's primitives one after another, each tested against the closest
-// hit so far, so that hits at equal distances resolve as in the kernel. The many contexts keep the pipelines busy meanwhile, in the
-// manner of the multithreaded ray processors (Woop, Schmittler and Slusallek 2005; TRaX).
+// hit so far, so that hits at equal distances resolve as in the kernel. The many contexts keep the pipelines busy
+// meanwhile, in the manner of the multithreaded ray processors (Woop, Schmittler and Slusallek 2005; TRaX).
 //
 // A mesh instance (intersect_instance) takes the ray into the mesh's space (the instance-ray unit), gives it its own
 // reciprocal (the setup unit, shared with entering rays, which wait meanwhile), and walks the mesh's tree from its
@@ -21,9 +21,11 @@
 // Scene memory: nodes as {count, left_first, hi.z, hi.y, hi.x, lo.z, lo.y, lo.x} (BvhNode), the scene's and after
 // them the meshes' (their left_first moved to where they are); primitives as {kind, 14 fields} (kind 0: a sphere as
 // a moving one, fields center0, radius, velocity, time0; 1: a triangle, p0, edge1, edge2; 2: a quad, corner, normal,
-// du, dv, u_extent, v_extent; 3: a mesh instance, its world-to-mesh rows and translation and its mesh's root node),
-// the scene's and after them the meshes' triangles. Written through the load ports before rays are sent. Left out:
-// the random draw of a medium's free-flight distance (see below).
+// du, dv, u_extent, v_extent; 3: a mesh instance, its world-to-mesh rows and translation and its mesh's root node;
+// 4: a constant medium, its boundary's place and piece count, its density term and which of the ray's free-flight
+// distances is its; 5: a sphere of a medium's boundary, center and radius), the scene's, then the meshes' triangles,
+// then the media's boundary pieces. Written through the load ports before rays are sent. Left out: the random draw of
+// a medium's free-flight distance (see below).
 //
 // A constant medium (intersect_medium) is walked like a leaf of its own: its boundary's pieces one after another
 // (a sphere's two crossings of the ray's line from the crossings unit, a face's one from the triangle or quad unit
