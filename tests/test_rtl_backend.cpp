@@ -33,18 +33,13 @@ RenderSettings tiny_settings(const SceneDescription& scene) {
   return settings;
 }
 
-RenderResult render_with(const std::string& backend, const FlatScene<Q16>& flat) {
-  auto renderer = make_backend<Q16>(backend, 2, 0, Integrator::kWavefront);
-  return render_scene(*renderer, flat);
-}
-
 class RtlBackend : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(RtlBackend, RendersTheCpuWavefrontImageBitForBit) {
   const SceneDescription description = load_scene_file(test::scene_path(GetParam() + ".json"));
   const FlatScene<Q16> flat = flatten_scene<Q16>(description, tiny_settings(description));
-  const RenderResult cpu = render_with("cpu", flat);
-  const RenderResult rtl = render_with("rtl", flat);
+  const RenderResult cpu = test::render(flat, 2, Integrator::kWavefront);
+  const RenderResult rtl = render_scene(*make_backend<Q16>("rtl", 2, 0, Integrator::kWavefront), flat);
   ASSERT_EQ(cpu.image.rgb.size(), rtl.image.rgb.size());
   std::size_t differ = 0;
   for (std::size_t i = 0; i < cpu.image.rgb.size(); ++i) differ += std::memcmp(&cpu.image.rgb[i], &rtl.image.rgb[i], sizeof(float)) != 0;

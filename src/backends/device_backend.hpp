@@ -54,7 +54,7 @@ class DeviceBackend final : public RenderBackend<T> {
     }
 #endif
     // A device that holds a copy of the scene elsewhere (the rtl backend's engine memory) takes it here.
-    if constexpr (requires { device_.take_scene(view_); }) device_.take_scene(view_);
+    if constexpr (requires { device_.take_scene(scene); }) device_.take_scene(scene);
     const std::size_t pixels = static_cast<std::size_t>(scene.params.width) * scene.params.height;
     film_ = static_cast<FilmPixel*>(memory_.allocate(pixels * sizeof(FilmPixel), "allocating the film"));
     film_pixels_ = pixels;

@@ -375,9 +375,9 @@ PT_HD inline bool walk_wide(const WideBvhNode<T>* nodes, u32 root, const WideRay
 // GPU threads are the SIMD lanes already, and a wide node would lengthen each thread's serial work, so GPUs walk the
 // binary tree; host CPUs the wide one in floating point, testing a node's boxes at once. Under AdaptiveCpp's
 // single-pass compiler one source serves both: the choice is a branch that its run-time compiler folds for the target
-// at hand. A CUDA build
-// with PT_CUDA_COMPRESSED_BVH walks the compressed wide tree in float instead (kernel/compressed_bvh.hpp; slower on
-// an H200 as it stands: BENCHMARKS.md, "A compressed wide BVH on the GPU"), which shares the wide tree's indices.
+// at hand. A CUDA build with PT_CUDA_COMPRESSED_BVH walks the compressed wide tree in float instead
+// (kernel/compressed_bvh.hpp; slower on an H200 as it stands: BENCHMARKS.md, "A compressed wide BVH on the GPU"),
+// which shares the wide tree's indices.
 template <class T, class Leaf>
 PT_HD inline bool walk_tree(const BvhNode<T>* nodes, const WideBvhNode<T>* wide_nodes, const CompressedWideNode* compressed_nodes, u32 root,
                             u32 wide_root, const Ray<T>& ray, T& closest, Leaf& leaf) {

@@ -426,6 +426,14 @@ PT_HD inline void widen_to_crossings(const Shape<T>& piece, const Ray<T>& ray, T
   }
 }
 
+// The free-flight distance a ray draws in a constant medium, exponentially distributed: from the ray's random number
+// for the medium (its index) at this bounce, so it depends on neither the walk nor the geometry (the rtl backend draws
+// it before the ray enters its engine). 1 - u lies in (0, 1]: the logarithm is finite.
+template <class T>
+PT_HD inline T medium_free_flight(const ConstantMedium<T>& medium, u32 primitive_index, const SampleRandom& random, u32 bounce) {
+  return medium.neg_inv_density * log(T(1) - random.template uniform<T>(bounce, kDimMediumBase + primitive_index));
+}
+
 // A ray crossing a medium scatters inside it after an exponentially distributed free flight. The boundary is convex,
 // so the line is inside it between its first and its last crossing (at an edge or a corner several faces give the
 // same distance): no tolerance separates the way in from the way out, whatever the scene's scale.
@@ -442,8 +450,7 @@ PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitiv
     if (entry < exit) *context.optical_depth += (entry - exit) / medium.neg_inv_density;
     return false;
   }
-  const T u = context.random->template uniform<T>(context.bounce, kDimMediumBase + primitive_index);
-  const T distance = medium.neg_inv_density * log(T(1) - u);  // 1 - u lies in (0, 1]: the logarithm is finite
+  const T distance = medium_free_flight(medium, primitive_index, *context.random, context.bounce);
   if (distance > exit - entry) return false;
   hit.t = entry + distance;
   hit.b1 = T(0);

@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "backends/cpu/cpu_device.hpp"
+#include "flat/flat_scene.hpp"
 #include "kernel/fixed_point.hpp"
 #include "kernel/wavefront.hpp"
 
@@ -52,15 +53,16 @@ struct EngineAnswer {
 };
 
 // Model: the Verilated engine in T's format (Vtraversal_engine_qI_F).
+// The CPU device but for its kind, its name, the integrator it prefers and the launches of the intersect stage.
 template <class T, class Model>
-class RtlDevice {
+class RtlDevice : public CpuDevice {
  public:
   static_assert(is_fixed_v<T>, "the traversal engine computes in fixed point");
   static constexpr u32 kWordBits = T::kTotalBits;
   static constexpr u32 kNodeBits = 16, kPrimitiveBits = 16;  // the engine's memories (traversal_engine.v parameters)
   static constexpr std::size_t kMediumSlots = 4;             // free-flight distances a ray brings (traversal_engine.v)
 
-  explicit RtlDevice(unsigned threads) : cpu_(threads), model_(std::make_unique<Model>()) {
+  explicit RtlDevice(unsigned threads) : CpuDevice(threads), model_(std::make_unique<Model>()) {
     model_->reset = 1;
     tick();
     tick();
@@ -70,26 +72,9 @@ class RtlDevice {
   std::string kind() const { return "rtl"; }
   std::string description() const {
     return fmt::format("traversal engine in Q{}.{}, {} rays in flight, cycle-accurate model; other stages on {}", T::kIntegerBits, T::kFractionBits,
-                       model_->context_count, cpu_.description());
+                       model_->context_count, CpuDevice::description());
   }
-  bool host() const { return true; }
   Integrator preferred_integrator() const { return Integrator::kWavefront; }
-  bool memory_on_host() const { return true; }
-  bool times_on_device() const { return false; }
-  void* allocate(std::size_t bytes, const char* what) { return cpu_.allocate(bytes, what); }
-  void release(void* pointer) { cpu_.release(pointer); }
-  void copy_to_device(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_device(to, from, bytes, what); }
-  void copy_to_host(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_host(to, from, bytes, what); }
-  void clear(void* to, std::size_t bytes, const char* what) { cpu_.clear(to, bytes, what); }
-  void synchronise(const char* what) { cpu_.synchronise(what); }
-  using Timer = CpuDevice::Timer;
-  Timer start_timer() const { return cpu_.start_timer(); }
-  void stop_timer(Timer start, double* seconds) const { cpu_.stop_timer(start, seconds); }
-  u64 saturations() const { return cpu_.saturations(); }
-  template <class Kernel>
-  void launch_image(const char* what, u32 width, u32 height, const Kernel& kernel) {
-    cpu_.launch_image(what, width, height, kernel);
-  }
 
   // The intersect stage's launches go to the engine; every other stage runs on the CPU.
   template <class Kernel>
@@ -99,50 +84,37 @@ class RtlDevice {
     else if constexpr (std::is_same_v<Kernel, WavefrontIntersectAndShadow<T>>)
       intersect(kernel.scene, kernel.view, kernel.paths, count - kernel.paths);
     else
-      cpu_.launch(what, count, kernel);
+      CpuDevice::launch(what, count, kernel);
   }
 
-  // Loads the scene's binary tree and primitives into the engine's memory, the meshes' trees and triangles after them
-  // (traversal_engine.v); a scene it cannot hold is refused.
-  void take_scene(const SceneView<T>& scene) {
-    const Extent own = extent(scene.nodes, 0);
-    std::vector<u32> placed;  // each placed mesh, once
-    media_.clear();
-    u32 boundaries = 0;
-    for (u32 i = 0; i < own.primitives; ++i) {
-      const Shape<T>& shape = scene.primitives[i].shape;
-      if (const auto* instance = std::get_if<MeshInstance<T>>(&shape)) placed.push_back(instance->mesh);
-      if (const auto* medium = std::get_if<ConstantMedium<T>>(&shape)) {
-        if (media_.size() == kMediumSlots)
-          throw BackendError(
-              fmt::format("the scene has more than {} constant media (primitive {}); the traversal engine takes {} free-flight distances "
-                          "a ray",
-                          kMediumSlots, i, kMediumSlots));
-        if (medium->boundary_count == 0) throw BackendError(fmt::format("the constant medium of primitive {} has no boundary", i));
-        media_.push_back(MediumSlot{i, medium->neg_inv_density});
-        boundaries = std::max(boundaries, medium->first_boundary + medium->boundary_count);
-      }
-    }
-    std::sort(placed.begin(), placed.end());
-    placed.erase(std::unique(placed.begin(), placed.end()), placed.end());
-    Extent meshes{};
-    for (u32 m : placed) {
-      const Extent mesh = extent(scene.meshes.nodes, scene.meshes.meshes[m].root);
-      meshes.nodes = std::max(meshes.nodes, mesh.nodes);
-      meshes.primitives = std::max(meshes.primitives, mesh.primitives);
-    }
-    node_base_ = own.nodes;
-    triangle_base_ = own.primitives;
-    node_count_ = own.nodes + meshes.nodes;
-    const u32 boundary_base = own.primitives + meshes.primitives;
-    const u64 nodes = u64{own.nodes} + meshes.nodes, primitives = u64{boundary_base} + boundaries;
-    primitive_count_ = primitives;
+  // Loads the flat scene into the engine's memories (traversal_engine.v): nodes, the scene's then the meshes'; then
+  // primitives, the scene's, the meshes' triangles and the media's boundary pieces. A scene it cannot hold is refused.
+  void take_scene(const FlatScene<T>& scene) {
+    const auto own_nodes = static_cast<u32>(scene.nodes.size()), own_primitives = static_cast<u32>(scene.primitives.size());
+    const u64 nodes = u64{own_nodes} + scene.mesh_nodes.size();
+    const u64 primitives = u64{own_primitives} + scene.mesh_triangles.size() + scene.boundaries.size();
     if (nodes > (1u << kNodeBits) || primitives > (1u << kPrimitiveBits))
       throw BackendError(fmt::format("the scene has {} BVH nodes and {} primitives and mesh triangles; the traversal engine holds {} of each", nodes,
                                      primitives, 1u << kNodeBits));
-    for (u32 i = 0; i < own.nodes; ++i) load_node(i, scene.nodes[i], 0, 0);
-    for (u32 i = 0; i < meshes.nodes; ++i) load_node(node_base_ + i, scene.meshes.nodes[i], node_base_, triangle_base_);
-    for (u32 i = 0; i < own.primitives; ++i) {
+    media_.clear();
+    for (u32 i = 0; i < own_primitives; ++i)
+      if (const auto* medium = std::get_if<ConstantMedium<T>>(&scene.primitives[i].shape)) {
+        if (media_.size() == kMediumSlots)
+          throw BackendError(
+              fmt::format("the scene has more than {} constant media (primitive {}); the traversal engine takes {} free-flight "
+                          "distances a ray",
+                          kMediumSlots, i, kMediumSlots));
+        if (medium->boundary_count == 0) throw BackendError(fmt::format("the constant medium of primitive {} has no boundary", i));
+        media_.push_back(MediumSlot{i, *medium});
+      }
+    node_base_ = own_nodes;
+    triangle_base_ = own_primitives;
+    const auto boundary_base = static_cast<u32>(own_primitives + scene.mesh_triangles.size());
+    node_count_ = nodes;
+    primitive_count_ = primitives;
+    for (u32 i = 0; i < own_nodes; ++i) load_node(i, scene.nodes[i], 0, 0);
+    for (u32 i = 0; i < scene.mesh_nodes.size(); ++i) load_node(node_base_ + i, scene.mesh_nodes[i], node_base_, triangle_base_);
+    for (u32 i = 0; i < own_primitives; ++i) {
       std::array<T, 14> fields{};
       u32 kind = std::visit(PrimitiveFields{fields}, scene.primitives[i].shape);
       if (const auto* instance = std::get_if<MeshInstance<T>>(&scene.primitives[i].shape)) {
@@ -150,10 +122,10 @@ class RtlDevice {
         // The world-to-mesh rows and translation (the identity where the mesh is in world space already: the unit
         // then gives the ray back exactly), and the mesh's root in node memory.
         AffineRows<T> rows{{{T(1), T(0), T(0)}, {T(0), T(1), T(0)}, {T(0), T(0), T(1)}}, {T(0), T(0), T(0)}};
-        if (instance->transform != kNoTransform) rows = scene.meshes.transforms[instance->transform].to_mesh;
+        if (instance->transform != kNoTransform) rows = scene.instance_transforms[instance->transform].to_mesh;
         for (u32 r = 0; r < 3; ++r) PrimitiveFields{fields}.set(3 * r, rows.row[r]);
         PrimitiveFields{fields}.set(9, rows.translation);
-        fields[12] = T::from_raw(static_cast<typename T::Storage>(node_base_ + scene.meshes.meshes[instance->mesh].root));
+        fields[12] = T::from_raw(static_cast<typename T::Storage>(node_base_ + scene.meshes[instance->mesh].root));
       }
       if (const auto* medium = std::get_if<ConstantMedium<T>>(&scene.primitives[i].shape)) {
         // Its pieces' place, their count, its density term, and which of the ray's free-flight distances is its.
@@ -168,20 +140,18 @@ class RtlDevice {
       load_primitive(i, kind, fields);
     }
     // A mesh's triangles as the scene's are stored: p0 and the two edges from it (the subtraction MeshLeaf makes).
-    for (u32 m : placed) {
-      const MeshRecord& record = scene.meshes.meshes[m];
+    for (const MeshRecord& record : scene.meshes)
       for (u32 i = record.first_triangle; i < record.first_triangle + record.triangle_count; ++i) {
-        const MeshTriangle& tri = scene.meshes.triangles[i];
-        const Vec3<T>& p0 = scene.meshes.positions[record.first_vertex + tri.vertex[0]];
+        const MeshTriangle& tri = scene.mesh_triangles[i];
+        const Vec3<T>& p0 = scene.mesh_positions[record.first_vertex + tri.vertex[0]];
         std::array<T, 14> fields{};
-        PrimitiveFields{fields}(Triangle<T>{p0, scene.meshes.positions[record.first_vertex + tri.vertex[1]] - p0,
-                                            scene.meshes.positions[record.first_vertex + tri.vertex[2]] - p0, -1});
+        PrimitiveFields{fields}(Triangle<T>{p0, scene.mesh_positions[record.first_vertex + tri.vertex[1]] - p0,
+                                            scene.mesh_positions[record.first_vertex + tri.vertex[2]] - p0, -1});
         load_primitive(triangle_base_ + i, 1, fields);
       }
-    }
     // The media's boundary pieces: a sphere's two crossings come from the crossings unit (kind 5), a face's from its
     // own unit.
-    for (u32 i = 0; i < boundaries; ++i) {
+    for (u32 i = 0; i < scene.boundaries.size(); ++i) {
       std::array<T, 14> fields{};
       const Shape<T>& piece = scene.boundaries[i].shape;
       u32 kind = std::visit(PrimitiveFields{fields}, piece);
@@ -218,27 +188,6 @@ class RtlDevice {
   const EngineCounters& counters() const { return counters_; }
 
  private:
-  // Nodes reachable from a root, and the primitives (or triangles) past the last its leaves hold.
-  struct Extent {
-    u32 nodes = 0, primitives = 0;
-  };
-  static Extent extent(const BvhNode<T>* tree, u32 root) {
-    Extent e;
-    std::vector<u32> pending{root};
-    while (!pending.empty()) {
-      const u32 index = pending.back();
-      pending.pop_back();
-      e.nodes = std::max(e.nodes, index + 1);
-      const BvhNode<T>& node = tree[index];
-      if (node.count > 0) {
-        e.primitives = std::max(e.primitives, node.left_first + node.count);
-      } else {
-        pending.push_back(index + 1);
-        pending.push_back(node.left_first);
-      }
-    }
-    return e;
-  }
   void load_node(u32 address, const BvhNode<T>& node, u32 node_offset, u32 primitive_offset) {
     clear_words(model_->node_data);
     const T bounds[6] = {node.lo.x, node.lo.y, node.lo.z, node.hi.x, node.hi.y, node.hi.z};
@@ -340,7 +289,7 @@ class RtlDevice {
       std::array<T, kMediumSlots> free_flights{};
       const SampleRandom random = wavefront_random(scene, w, w.current.item[i]);
       for (std::size_t m = 0; m < media_.size(); ++m)
-        free_flights[m] = media_[m].neg_inv_density * log(T(1) - random.template uniform<T>(path.bounce, kDimMediumBase + media_[m].primitive));
+        free_flights[m] = medium_free_flight(media_[m].medium, media_[m].primitive, random, path.bounce);
       queries_.push_back({path.ray, largest<T>(), false, free_flights, path.bounce == 0 ? &counters_.primary : &counters_.bounce});
     }
     std::vector<ShadowRay<T>> shadow_rays(shadows);
@@ -426,13 +375,12 @@ class RtlDevice {
     m.ray_valid = 0;
   }
 
-  CpuDevice cpu_;
   std::unique_ptr<Model> model_;
-  u32 node_base_ = 0, triangle_base_ = 0;  // where the meshes' nodes and triangles begin in the engine's memories
+  u32 node_base_ = 0, triangle_base_ = 0;     // where the meshes' nodes and triangles begin in the engine's memories
   u64 node_count_ = 0, primitive_count_ = 0;  // the scene's share of them
   struct MediumSlot {
     u32 primitive;
-    T neg_inv_density;
+    ConstantMedium<T> medium;
   };
   std::vector<MediumSlot> media_;  // the scene's media, in the order of the free-flight distances a ray brings
   EngineCounters counters_;

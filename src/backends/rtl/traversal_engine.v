@@ -291,10 +291,11 @@ module traversal_engine #(
   wire [CONTEXT_BITS-1:0] triangle_context = triangle_tags[triangle_out][CONTEXT_BITS-1:0];
   wire [CONTEXT_BITS-1:0] quad_context = quad_tags[quad_out][CONTEXT_BITS-1:0];
 
-  // Going to a node whose header is known: a leaf's primitives (a mesh leaf's triangles), or an inner node's two
-  // children's boxes.
-  task automatic enter(input [CONTEXT_BITS-1:0] x, input [95:0] header);
-    if (header[63:32] != 0 && in_mesh[x]) begin
+  // Going to a node whose header is known: a leaf's primitives (a mesh leaf's triangles, where the walk is in a
+  // mesh), or an inner node's two children's boxes. `mesh` says which tree the node is in: the caller's, since a
+  // walk leaving a mesh clears in_mesh in the same clock.
+  task automatic enter_node(input [CONTEXT_BITS-1:0] x, input [95:0] header, input mesh);
+    if (header[63:32] != 0 && mesh) begin
       next_triangle[x] <= header[31:0];
       end_triangle[x] <= header[31:0] + header[63:32];
       state[x] <= MESH_PRIMITIVE;
@@ -308,6 +309,9 @@ module traversal_engine #(
       state[x] <= CHILDREN;
     end
   endtask
+  task automatic enter(input [CONTEXT_BITS-1:0] x, input [95:0] header);
+    enter_node(x, header, in_mesh[x]);
+  endtask
   function automatic [CONTEXT_BITS+6:0] stack_slot(input [CONTEXT_BITS-1:0] x, input [7:0] level);
     stack_slot = {x, level[6:0]};
   endfunction
@@ -317,11 +321,7 @@ module traversal_engine #(
       state[x] <= DONE;
     end else begin
       depth[x] <= depth[x] - 1;
-      next_primitive[x] <= stack[stack_slot(x, depth[x] - 1)][31:0];
-      end_primitive[x] <= stack[stack_slot(x, depth[x] - 1)][31:0] + stack[stack_slot(x, depth[x] - 1)][63:32];
-      child0[x] <= stack[stack_slot(x, depth[x] - 1)][95:64] + 1;
-      child1[x] <= stack[stack_slot(x, depth[x] - 1)][31:0];
-      state[x] <= stack[stack_slot(x, depth[x] - 1)][63:32] != 0 ? PRIMITIVE : CHILDREN;
+      enter_node(x, stack[stack_slot(x, depth[x] - 1)], 0);
     end
   endtask
   // The scene's leaf goes on after a primitive: its next one, or the stack.
