@@ -415,6 +415,14 @@ struct ScalarTraits<Fixed<I, F>> {
     if (denominator == 0) return T::from_raw(numerator < 0 ? -T::kMaxRaw : T::kMaxRaw);
     return T::from_raw(clamp_to_range(numerator * (i128(1) << F) / denominator));
   }
+  // Quotients whose use tells the hardware more (tools/hardware reads these names from the kernel's dataflow): one
+  // that lies in [0, 1] wherever it is used (a hit's barycentric coordinates; a divider of F + 1 quotient bits), and
+  // one by a quad's extent, whose raw value is a power of two, of a numerator that is not negative where it is used
+  // (a shift). Here both are exact_quotient.
+  PT_HD static constexpr T exact_fraction(i128 numerator, i128 denominator) { return exact_quotient(numerator, denominator); }
+  PT_HD static constexpr T exact_quotient_by_extent(i128 numerator, T extent) {
+    return exact_quotient(numerator, exact(extent) * exact(T(1)));
+  }
   // A quad stores its dual edges times a power of two near the edge's length (Quad in kernel/shapes.hpp): sizes
   // near 1, which keep every fraction bit, where 1 / length (1/555 has 7 significant bits in Q16.16) would not.
   // Within the format's range: at least one step, at most a quarter of the largest value.

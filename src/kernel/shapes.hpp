@@ -319,8 +319,8 @@ PT_HD inline bool intersect_triangle(const Triangle<T>& tri, const Ray<T>& ray, 
     const T distance = S::exact_quotient(t, det);
     if (!(distance > t_min && distance < t_max)) return false;
     hit.t = distance;
-    hit.b1 = S::exact_quotient(b1, det);
-    hit.b2 = S::exact_quotient(b2, det);
+    hit.b1 = S::exact_fraction(b1, det);
+    hit.b2 = S::exact_fraction(b2, det);
     return true;
   }
   const Vec3<T> pvec = cross(ray.direction, tri.edge2);
@@ -365,8 +365,8 @@ PT_HD inline bool intersect_quad(const Quad<T>& q, const Ray<T>& ray, T t_min, T
     }
     if (!(a >= 0 && a <= a_max && b >= 0 && b <= b_max)) return false;
     hit.t = t;
-    hit.b1 = S::exact_quotient(a, a_max);
-    hit.b2 = S::exact_quotient(b, b_max);
+    hit.b1 = S::exact_quotient_by_extent(a, q.u_extent);
+    hit.b2 = S::exact_quotient_by_extent(b, q.v_extent);
     return true;
   }
   const T denominator = dot(q.normal, ray.direction);
@@ -434,28 +434,38 @@ PT_HD inline T medium_free_flight(const ConstantMedium<T>& medium, u32 primitive
   return medium.neg_inv_density * log(T(1) - random.template uniform<T>(bounce, kDimMediumBase + primitive_index));
 }
 
+// What a medium does to a ray whose line is inside it from `first` to `last`: the stretch within (t_min, t_max) and
+// ahead of the origin; a shadow ray (optical_depth given) adds density x its length there and is never stopped; another
+// scatters at the free-flight distance `free_flight()` (drawn only where the stretch is not empty) if it falls within.
+template <class T, class FreeFlight>
+PT_HD inline bool medium_event(T first, T last, T t_min, T t_max, T neg_inv_density, T* optical_depth, const FreeFlight& free_flight,
+                               Hit<T>& hit) {
+  T entry = max(first, t_min);
+  const T exit = min(last, t_max);
+  if (!(entry < exit)) return false;
+  entry = max(entry, T(0));
+  if (optical_depth) {
+    if (entry < exit) *optical_depth += (entry - exit) / neg_inv_density;
+    return false;
+  }
+  const T distance = free_flight();
+  if (distance > exit - entry) return false;
+  hit.t = entry + distance;
+  hit.b1 = T(0);
+  hit.b2 = T(0);
+  return true;
+}
+
 // A ray crossing a medium scatters inside it after an exponentially distributed free flight. The boundary is convex,
 // so the line is inside it between its first and its last crossing (at an edge or a corner several faces give the
 // same distance): no tolerance separates the way in from the way out, whatever the scene's scale.
 template <class T>
 PT_HD inline bool intersect_medium(const ConstantMedium<T>& medium, u32 primitive_index, const IntersectContext<T>& context, const Ray<T>& ray,
                                    T t_min, T t_max, Hit<T>& hit) {
-  T entry = largest<T>(), exit = -largest<T>();
-  for (u32 i = 0; i < medium.boundary_count; ++i) widen_to_crossings(context.boundaries[medium.first_boundary + i].shape, ray, entry, exit);
-  entry = max(entry, t_min);
-  exit = min(exit, t_max);
-  if (!(entry < exit)) return false;
-  entry = max(entry, T(0));
-  if (context.optical_depth) {
-    if (entry < exit) *context.optical_depth += (entry - exit) / medium.neg_inv_density;
-    return false;
-  }
-  const T distance = medium_free_flight(medium, primitive_index, *context.random, context.bounce);
-  if (distance > exit - entry) return false;
-  hit.t = entry + distance;
-  hit.b1 = T(0);
-  hit.b2 = T(0);
-  return true;
+  T first = largest<T>(), last = -largest<T>();
+  for (u32 i = 0; i < medium.boundary_count; ++i) widen_to_crossings(context.boundaries[medium.first_boundary + i].shape, ray, first, last);
+  return medium_event(first, last, t_min, t_max, medium.neg_inv_density, context.optical_depth,
+                      [&] { return medium_free_flight(medium, primitive_index, *context.random, context.bounce); }, hit);
 }
 
 template <class T>

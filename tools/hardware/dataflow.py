@@ -10,7 +10,7 @@
 #   neg        two's complement negation (the range is symmetric, so it never overflows)
 #   min, max   a < b ? a : b and a > b ? a : b
 #   lt .. ne   signed compares, giving one bit; and_, or_, not_ combine bits
-#   select     c ? a : b
+#   select     c ? a : b (xselect for exact values)
 # Exact operations keep products wide, as the kernels do for formats of up to 32 bits (ScalarTraits<Fixed>::
 # kExactProducts, src/kernel/shapes.hpp): xmul, xadd, xsub give the exact result, as wide as it needs, with the
 # operands' fraction bits added (2F, 3F); xlt .. xeq compare such values; round_exact rounds one with 2F fraction bits
@@ -214,6 +214,13 @@ class Unit:
         return (self.xsub(self.xmul(a[1], b[2]), self.xmul(a[2], b[1])),
                 self.xsub(self.xmul(a[2], b[0]), self.xmul(a[0], b[2])),
                 self.xsub(self.xmul(a[0], b[1]), self.xmul(a[1], b[0])))
+
+    def xselect(self, c, a, b):
+        """c ? a : b for exact values with the same fraction bits (sign-extended to the wider)."""
+        assert c.is_bit and a.frac == b.frac and not a.is_bit and not b.is_bit
+        v = self._value("select", (c, a, b), max(a.width, b.width), 1)
+        v.frac = a.frac
+        return v
 
     def bit_select(self, c, a, b):
         """c ? a : b for bits."""

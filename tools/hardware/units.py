@@ -1,20 +1,29 @@
 #!/usr/bin/env python3
-# The intersection units (ray-box slab test, ray-triangle, ray-quad, ray-sphere) as dataflow graphs that follow the
-# kernel functions of src/kernel/bvh.hpp and src/kernel/shapes.hpp operation for operation, and the command that
-# writes one unit in one format as Verilog (and the port list the Verilator testbench binds to).
+# The hardware units (ray-box slab test, ray-triangle, ray-quad, ray-sphere and the traversal engine's others) made
+# from the kernel source: tools/hardware/record_graphs.cpp runs each unit's model (tools/hardware/operands.hpp, which
+# calls the kernel function) on a scalar type that records every operation, and this writes the recorded dataflow in
+# one format as pipelined Verilog (dataflow.py, float32.py), with the port list the Verilator testbench binds to. A
+# change to a kernel formula changes the hardware; the testbench checks every unit bit for bit against the kernel.
 #
 #   units.py --unit triangle --format 16.16 --verilog triangle_q16_16.v [--ports triangle_q16_16_ports.hpp]
 #   units.py --unit box --format float32 --verilog box_float32.v     the same unit on IEEE-754 binary32 (float32.py)
 #   units.py --list                    the unit names
 #   units.py --costs --format 16.16    operation counts and pipeline depth per unit, as CSV
 #   units.py --engine-units engine_units_q16_16.v --format 16.16     the traversal engine's units, one file
+#   units.py --record-graphs graphs.json [--cxx g++]     record the graphs once; --graphs graphs.json reads them
 #
+# Without --graphs (or $PT_UNIT_GRAPHS) the graphs are recorded on each run (a C++ compile of a second or two).
 # A unit's inputs are what its kernel function reads, in the order the testbench passes them; its outputs are the
 # hit flag and the values the kernel writes. Where the kernel returns early (a miss), the hardware computes
 # everything and the flag says whether the values mean anything.
 
 import argparse
+import json
+import os
+import struct
+import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -22,243 +31,205 @@ from dataflow import Unit  # noqa: E402
 from float32 import FloatUnit  # noqa: E402
 
 
-def vec_input(u: Unit, name: str):
-    return tuple(u.input(f"{name}_{axis}") for axis in "xyz")
+# The units, each the model of its operand set in tools/hardware/operands.hpp, which calls the kernel function named.
+UNITS = {
+    "box": "ray_hits_box (src/kernel/bvh.hpp): the slab test of a node's box, with the BoxRay's planes chosen",
+    "triangle": "intersect_triangle (src/kernel/shapes.hpp): Moller-Trumbore",
+    "quad": "intersect_quad (src/kernel/shapes.hpp)",
+    "sphere": "intersect_sphere with sphere_roots (src/kernel/shapes.hpp)",
+    "moving_sphere": "intersect_sphere at moving_sphere_center (src/kernel/shapes.hpp); a standing sphere has velocity 0",
+    "ray_setup": "slab_reciprocals (src/kernel/bvh.hpp): 1 / d per axis, the traversal engine's ray entry",
+    "instance_ray": "instance_ray (src/kernel/bvh.hpp): a world ray taken into a mesh instance's space",
+    "sphere_crossings": "sphere_roots (src/kernel/shapes.hpp): where a line crosses a medium's spherical boundary",
+    "medium": "medium_event (src/kernel/shapes.hpp): a medium's stretch of the ray, free flight or optical depth",
+}
+FLOAT32_UNITS = ("box", "triangle", "quad", "sphere")  # the others take part in fixed-point engines only
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+_graphs: dict | None = None
 
 
-def box_unit(u: Unit) -> None:
-    """ray_hits_box (src/kernel/bvh.hpp) with ScalarTraits<Fixed>::slab_distance: for each axis the distances to the
-    plane met first and the one met last, (bound - origin) * (1 / d) rounded (the traits clamp out-of-range
-    distances, as the product's saturation does), then entry = max(max(tx0, ty0), max(tz0, t_min)), exit = min(...),
-    hit where entry <= exit. Inputs: the BoxRay's reciprocal direction and origin term (the origin, for fixed point),
-    the node's bounds as the BoxRay's plane offsets select them, t_min and t_max.
-    In float (ScalarTraits<float>::slab_distance) the distance is bound * (1 / d) - origin * (1 / d), the origin term
-    being the product: a multiply, then a subtraction, each rounded (host code is compiled without contraction into
-    a fused multiply-add)."""
-    inv = vec_input(u, "inv_direction")
-    origin = vec_input(u, "origin_term")
-    near_bound = vec_input(u, "near_bound")
-    far_bound = vec_input(u, "far_bound")
-    t_min, t_max = u.input("t_min"), u.input("t_max")
-    if u.is_float:
-        t0 = [u.sub(u.mul(near_bound[k], inv[k]), origin[k]) for k in range(3)]
-        t1 = [u.sub(u.mul(far_bound[k], inv[k]), origin[k]) for k in range(3)]
-    else:
-        t0 = [u.mul(u.sub(near_bound[k], origin[k]), inv[k]) for k in range(3)]
-        t1 = [u.mul(u.sub(far_bound[k], origin[k]), inv[k]) for k in range(3)]
-    near = u.max(u.max(t0[0], t0[1]), u.max(t0[2], t_min))
-    far = u.min(u.min(t1[0], t1[1]), u.min(t1[2], t_max))
-    u.output("hit", u.le(near, far))
-    u.output("t_entry", near)
+def record_graphs(cxx: str = "", sources: Path = ROOT / "src") -> dict:
+    """Compiles tools/hardware/record_graphs.cpp (the kernel's unit models on a recording scalar type) against the
+    kernel headers under `sources` and runs it: the units' dataflow graphs, for each kind of scalar."""
+    compiler = cxx or os.environ.get("CXX") or "c++"
+    with tempfile.TemporaryDirectory() as work:
+        program = Path(work) / "record_graphs"
+        subprocess.run([compiler, "-std=c++20", "-O1", f"-I{sources}", f"-I{ROOT / 'tools'}", str(HERE / "record_graphs.cpp"),
+                        "-o", str(program)], check=True)
+        text = subprocess.run([str(program)], check=True, capture_output=True, text=True).stdout
+    return json.loads(text)
 
 
-def exact_products(u: Unit) -> bool:
-    """Whether the kernel keeps products exact in this format: ScalarTraits<Fixed>::kExactProducts, storage of at most
-    32 bits. Float rounds every product (ScalarTraits<float>::kExactProducts is false): the other branch of each
-    kernel, which the units below follow for float32 as they do for 64-bit fixed point."""
-    return not u.is_float and u.W <= 32
+def graphs(path: str = "") -> dict:
+    """The recorded graphs: from `path` (or $PT_UNIT_GRAPHS) where given, else recorded now, once per process."""
+    global _graphs
+    if _graphs is None:
+        source = path or os.environ.get("PT_UNIT_GRAPHS", "")
+        _graphs = json.loads(Path(source).read_text()) if source else record_graphs()
+    return _graphs
 
 
-def triangle_unit(u: Unit) -> None:
-    """intersect_triangle (Moller-Trumbore, src/kernel/shapes.hpp). With exact products: p = d x e2 and
-    q = (o - p0) x e1 exact, det = e1.p, U = (o - p0).p, V = d.q, W = e2.q exact; the inside test on those with the
-    sign of det folded in; t, b1, b2 one quotient each by det (the same as by |det| with the signs folded: truncation
-    is symmetric). b1 and b2 lie in [0, 1] on a hit, so their dividers make F + 1 quotient bits."""
-    p0, edge1, edge2 = vec_input(u, "p0"), vec_input(u, "edge1"), vec_input(u, "edge2")
-    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
-    t_min, t_max = u.input("t_min"), u.input("t_max")
-    if exact_products(u):
-        pvec = u.xcross(direction, edge2)
-        det = u.xdot(edge1, pvec)
-        tvec = u.vsub(origin, p0)  # rounded (saturating) as Vec3<T> subtraction
-        b1 = u.xdot(tvec, pvec)
-        qvec = u.xcross(tvec, edge1)
-        b2 = u.xdot(direction, qvec)
-        t_exact = u.xdot(edge2, qvec)
-        zero = u.xzero(det.frac)
-        negative = u.xlt(det, zero)
-        # The tests on the folded values: U >= 0 is U <= 0 where det < 0, and U + V <= det is U + V >= det.
-        b1_inside = u.bit_select(negative, u.xle(b1, zero), u.xge(b1, zero))
-        b2_inside = u.bit_select(negative, u.xle(b2, zero), u.xge(b2, zero))
-        sum_inside = u.bit_select(negative, u.xge(u.xadd(b1, b2), det), u.xle(u.xadd(b1, b2), det))
-        t = u.quotient(t_exact, det)
-        hit = u.and_(u.not_(u.xeq(det, zero)), b1_inside, b2_inside, sum_inside, u.gt(t, t_min), u.lt(t, t_max))
-        u.output("hit", hit)
-        u.output("t", t)
-        u.output("b1", u.quotient(b1, det, u.F + 1))
-        u.output("b2", u.quotient(b2, det, u.F + 1))
-        return
-    zero, one = u.zero(), u.one()
-    pvec = u.cross(direction, edge2)
-    det = u.dot(edge1, pvec)
-    inv_det = u.div(one, det)
-    tvec = u.vsub(origin, p0)
-    b1 = u.mul(u.dot(tvec, pvec), inv_det)
-    qvec = u.cross(tvec, edge1)
-    b2 = u.mul(u.dot(direction, qvec), inv_det)
-    t = u.mul(u.dot(edge2, qvec), inv_det)
-    hit = u.and_(u.ne(det, zero), u.ge(b1, zero), u.le(b1, one), u.ge(b2, zero), u.le(u.add(b1, b2), one),
-                 u.gt(t, t_min), u.lt(t, t_max))
-    u.output("hit", hit)
-    u.output("t", t)
-    u.output("b1", b1)
-    u.output("b2", b2)
+class _Expr:
+    """A node of the joined datapath: a recorded operation, or a multiplexer or bit logic made when joining paths.
+    Hash-consed (make), so that equal expressions are one node."""
+    __slots__ = ("op", "args", "value", "name")
+
+    def __init__(self, op, args, value, name):
+        self.op, self.args, self.value, self.name = op, args, value, name
 
 
-def quad_unit(u: Unit) -> None:
-    """intersect_quad (src/kernel/shapes.hpp): t from the unit normal, the quad coordinates from the dual edges times
-    their extents. With exact products: den = n.d and n.(corner - o) exact, t their quotient; a = du.planar and
-    b = dv.planar exact, compared with [0, extent * 2^F]; b1, b2 = a / extent, a shift (extents are powers of two,
-    as flatten_scene stores them)."""
-    corner, normal = vec_input(u, "corner"), vec_input(u, "normal")
-    du, dv = vec_input(u, "du"), vec_input(u, "dv")
-    u_extent, v_extent = u.input("u_extent"), u.input("v_extent")
-    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
-    t_min, t_max = u.input("t_min"), u.input("t_max")
-    one = u.one()
-    if exact_products(u):
-        denominator = u.xdot(normal, direction)
-        zero = u.xzero(denominator.frac)
-        t = u.quotient(u.xdot(normal, u.vsub(corner, origin)), denominator)
-        planar = u.vsub(u.vadd(origin, u.vscale(direction, t)), corner)
-        a, b = u.xdot(du, planar), u.xdot(dv, planar)
-        a_max, b_max = u.xmul(u_extent, one), u.xmul(v_extent, one)
-        hit = u.and_(u.not_(u.xeq(denominator, zero)), u.gt(t, t_min), u.lt(t, t_max), u.xge(a, zero), u.xle(a, a_max),
-                     u.xge(b, zero), u.xle(b, b_max))
-        u.output("hit", hit)
-        u.output("t", t)
-        u.output("b1", u.shift_quotient(a, u_extent))
-        u.output("b2", u.shift_quotient(b, v_extent))
-        return
-    # Formats without exact products store extents of 1: a and b are the dot products themselves.
-    zero = u.zero()
-    denominator = u.dot(normal, direction)
-    t = u.div(u.dot(normal, u.vsub(corner, origin)), denominator)
-    at = u.vadd(origin, u.vscale(direction, t))  # ray.at(t) = origin + t * direction
-    planar = u.vsub(at, corner)
-    a = u.dot(du, planar)
-    b = u.dot(dv, planar)
-    hit = u.and_(u.ne(denominator, zero), u.gt(t, t_min), u.lt(t, t_max), u.ge(a, zero), u.le(a, one),
-                 u.ge(b, zero), u.le(b, one))
-    u.output("hit", hit)
-    u.output("t", t)
-    u.output("b1", a)
-    u.output("b2", b)
+class _Joiner:
+    """Joins the paths of one recorded unit into one datapath. The decisions of all paths form a binary tree (every
+    way of every decision was followed); each output is a multiplexer tree over the decisions' bits, with the values
+    of the paths at its leaves; an output that means something only on a hit takes no leaf from a path that missed,
+    and the hit flag has the returned constants at its leaves. Multiplexers are pushed below operations of the same
+    kind (select(c, q(a, b), q(a', b')) = q(select(c, a, a'), select(c, b, b'))), so that the ways of a branch share
+    one divider, one root, one compare, as a hand-written datapath would."""
+
+    DONT_CARE = _Expr("dont_care", (), 0, "")
+
+    def __init__(self, graph: dict):
+        self.table: dict = {}
+        self.recorded: list[_Expr] = []
+        for op, args, value, name in graph["nodes"]:
+            self.recorded.append(self.make(op, tuple(self.recorded[a] for a in args), value, name))
+        self.one_bit = self.make("bit", (), 1)
+        self.zero_bit = self.make("bit", (), 0)
+
+    def make(self, op, args=(), value=0, name="") -> _Expr:
+        key = (op, tuple(id(a) for a in args), value, name)
+        node = self.table.get(key)
+        if node is None:
+            node = self.table[key] = _Expr(op, args, value, name)
+        return node
+
+    def select(self, c: _Expr, a: _Expr, b: _Expr) -> _Expr:
+        if a is self.DONT_CARE or a is b:
+            return b
+        if b is self.DONT_CARE:
+            return a
+        if c.op == "not":
+            return self.select(c.args[0], b, a)
+        if a.op == "bit" and b.op == "bit":
+            return c if a.value else self.make("not", (c,))
+        if a.op == "bit":
+            return self.make("or", (c, b)) if a.value else self.make("and", (self.make("not", (c,)), b))
+        if b.op == "bit":
+            return self.make("or", (self.make("not", (c,)), a)) if b.value else self.make("and", (c, a))
+        if a.op == b.op and len(a.args) == len(b.args) and a.args and a.value == b.value:
+            return self.make(a.op, tuple(self.select(c, x, y) for x, y in zip(a.args, b.args)), a.value)
+        return self.make("select", (c, a, b))
+
+    def join(self, paths: list, depth: int, only_on_hit: list[bool]):
+        """(hit, outputs) of the paths that share their first `depth` decisions."""
+        if len(paths) == 1 and len(paths[0]["decisions"]) == depth:
+            path = paths[0]
+            returned = bool(path["returned"])
+            outputs = [self.recorded[o] if returned or not only else self.DONT_CARE for o, only in zip(path["outputs"], only_on_hit)]
+            return (self.one_bit if returned else self.zero_bit), outputs
+        bit = self.recorded[paths[0]["decisions"][depth][0]]
+        ways = [[p for p in paths if p["decisions"][depth][1] == way] for way in (1, 0)]
+        assert all(ways) and all(p["decisions"][depth][0] == paths[0]["decisions"][depth][0] for p in paths)
+        (hit_true, out_true), (hit_false, out_false) = (self.join(w, depth + 1, only_on_hit) for w in ways)
+        return self.select(bit, hit_true, hit_false), [self.select(bit, a, b) for a, b in zip(out_true, out_false)]
 
 
-def sphere_unit(u: Unit) -> None:
-    """intersect_sphere with sphere_roots (src/kernel/shapes.hpp): the discriminant from the perpendicular distance to
-    the centre, the nearer root if it lies in (t_min, t_max), else the farther. With exact products b is oc.d rounded
-    once, and r^2 - |perp|^2 is exact (nothing squared is rounded), its root rounded to nearest."""
-    sphere_test(u, vec_input(u, "center"), u.input("radius"))
+def _fixed_constant(u: Unit, value: float) -> int:
+    """The raw value of Fixed(value): rounded half away from zero, saturated (kernel/fixed_point.hpp)."""
+    scaled = value * (1 << u.F)
+    if scaled >= u.max_raw:
+        return u.max_raw
+    if scaled <= -u.max_raw:
+        return -u.max_raw
+    return int(scaled + (0.5 if scaled >= 0 else -0.5))
 
 
-def sphere_test(u: Unit, center, radius) -> None:
-    """The body of sphere_unit for a centre and radius computed or read elsewhere."""
-    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
-    t_min, t_max = u.input("t_min"), u.input("t_max")
-    misses, near, far = sphere_roots(u, center, radius, origin, direction)
-    near_inside = u.and_(u.gt(near, t_min), u.lt(near, t_max))
-    far_inside = u.and_(u.gt(far, t_min), u.lt(far, t_max))
-    zero = u.zero()
-    u.output("hit", u.and_(u.not_(misses), u.or_(near_inside, far_inside)))
-    u.output("t", u.select(near_inside, near, far))
-    u.output("b1", zero)
-    u.output("b2", zero)
+class _Builder:
+    """Builds a Unit from the joined datapath: each node as the dataflow.py operation of the same semantics."""
+
+    SIMPLE = {"add", "sub", "mul", "div", "neg", "min", "max", "sqrt", "lt", "le", "eq"}
+
+    def __init__(self, u: Unit, joiner: _Joiner, graph: dict):
+        self.u = u
+        self.values: dict[int, object] = {}
+        for name, node in graph["inputs"]:  # every port, in the operand set's order, used or not
+            self.values[id(joiner.recorded[node])] = u.input(name)
+
+    def value(self, e: _Expr):
+        v = self.values.get(id(e))
+        if v is None:
+            v = self.values[id(e)] = self.make(e)
+        return v
+
+    def exact_zero_or(self, e: _Expr, other):
+        return self.u.xzero(other.frac) if e.op == "xzero" else self.value(e)
+
+    def make(self, e: _Expr):
+        u, op = self.u, e.op
+        if op == "const":
+            return u.const(struct.unpack("<I", struct.pack("<f", e.value))[0] if u.is_float else _fixed_constant(u, e.value))
+        if op == "largest":
+            return u.const(0x7F7FFFFF if u.is_float else u.max_raw)
+        if op in ("xlt", "xle", "xeq"):
+            a = e.args[0] if e.args[0].op != "xzero" else e.args[1]
+            known = self.value(a)
+            x, y = (self.exact_zero_or(arg, known) for arg in e.args)
+            return {"xlt": u.xlt, "xle": u.xle, "xeq": u.xeq}[op](x, y)
+        args = [self.value(a) for a in e.args]
+        if op in self.SIMPLE:
+            return getattr(u, op)(*args)
+        if op in ("and", "or"):
+            return getattr(u, op + "_")(*args)
+        if op == "not":
+            return u.not_(args[0])
+        if op == "select":
+            c, a, b = args
+            if a.is_bit:
+                return u.bit_select(c, a, b)
+            return u.select(c, a, b) if a.width == u.W and b.width == u.W else u.xselect(c, a, b)
+        if op in ("xmul", "xadd", "xsub"):
+            return getattr(u, op)(*args)
+        if op == "xneg":
+            return u.xsub(u.xzero(args[0].frac), args[0])
+        if op == "round":
+            return u.round_exact(args[0])
+        if op == "xsqrt":
+            return u.exact_sqrt(args[0])
+        if op == "quotient":
+            return u.quotient(*args)
+        if op == "fraction":  # a quotient in [0, 1] wherever it is used: F + 1 quotient bits
+            return u.quotient(*args, u.F + 1)
+        if op == "shift_quotient":
+            return u.shift_quotient(*args)
+        raise ValueError(f"{u.name}: the kernel's dataflow has an operation '{op}' that no hardware operator implements")
 
 
-def sphere_roots(u: Unit, center, radius, origin, direction):
-    """sphere_roots (src/kernel/shapes.hpp): whether the line misses the sphere, and its two crossings."""
-    oc = u.vsub(origin, center)
-    if exact_products(u):
-        b = u.round_exact(u.xdot(oc, direction))
-        perpendicular = u.vsub(oc, u.vscale(direction, b))  # oc - b * direction, rounded per operation
-        discriminant = u.xsub(u.xmul(radius, radius), u.xdot(perpendicular, perpendicular))
-        misses = u.xlt(discriminant, u.xzero(discriminant.frac))
-        root = u.exact_sqrt(discriminant)
-    else:
-        b = u.dot(oc, direction)
-        perpendicular = u.vsub(oc, u.vscale(direction, b))
-        discriminant = u.sub(u.mul(radius, radius), u.dot(perpendicular, perpendicular))
-        misses = u.lt(discriminant, u.zero())
-        root = u.sqrt(discriminant)
-    minus_b = u.neg(b)
-    return misses, u.sub(minus_b, root), u.add(minus_b, root)
-
-
-def sphere_crossings_unit(u: Unit) -> None:
-    """The crossings of a medium's spherical boundary with the ray's whole line (widen_to_crossings,
-    src/kernel/shapes.hpp): sphere_roots' near and far, and whether the line meets the sphere at all."""
-    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
-    misses, near, far = sphere_roots(u, vec_input(u, "center"), u.input("radius"), origin, direction)
-    u.output("hit", u.not_(misses))
-    u.output("near", near)
-    u.output("far", far)
-
-
-def medium_unit(u: Unit) -> None:
-    """The end of intersect_medium (src/kernel/shapes.hpp), once the boundary's crossings are known (first, last):
-    the line's stretch inside, clipped to (0, t_max); for a shadow ray (`shadow` not 0) the optical depth it adds,
-    (entry - exit) / neg_inv_density, summed into optical_depth; for another the free-flight distance `distance`
-    (neg_inv_density log(1 - u), drawn beside the ray) compared with the stretch, and the hit at entry + distance."""
-    first, last, t_max = u.input("first"), u.input("last"), u.input("t_max")
-    distance, neg_inv_density = u.input("distance"), u.input("neg_inv_density")
-    optical_depth, shadow = u.input("optical_depth"), u.input("shadow")
-    zero = u.zero()
-    entry = u.max(u.max(first, zero), zero)  # max(entry, t_min), then max(entry, 0)
-    exit_ = u.min(last, t_max)
-    inside = u.lt(entry, exit_)
-    is_shadow = u.ne(shadow, zero)
-    u.output("hit", u.and_(u.not_(is_shadow), inside, u.not_(u.gt(distance, u.sub(exit_, entry)))))
-    u.output("t", u.add(entry, distance))
-    u.output("optical_depth_out", u.select(u.and_(is_shadow, inside), u.add(optical_depth, u.div(u.sub(entry, exit_), neg_inv_density)),
-                                       optical_depth))
-
-
-def moving_sphere_unit(u: Unit) -> None:
-    """intersect_sphere at moving_sphere_center(s, time) = center0 + (time - time0) * velocity (src/kernel/shapes.hpp),
-    the sphere test above after it. A sphere that does not move is this unit's with velocity 0 and time0 0: the
-    product is then 0 and the sum center0, exactly, so the traversal engine has one unit for both kinds."""
-    center0, radius = vec_input(u, "center0"), u.input("radius")
-    velocity, time0, time = vec_input(u, "velocity"), u.input("time0"), u.input("ray_time")  # `time` is a Verilog word
-    center = u.vadd(center0, u.vscale(velocity, u.sub(time, time0)))
-    sphere_test(u, center, radius)
-
-
-def instance_ray_unit(u: Unit) -> None:
-    """instance_ray (src/kernel/bvh.hpp): a world ray taken into a mesh instance's space by AffineRows::point and
-    ::vector (src/kernel/shapes.hpp), each component a dot product of a row with the vector, the translation added to
-    the origin's. An instance without a transform is this unit's with the identity: 1 * x rounds to x and 0 * y is 0,
-    exactly, so the traversal engine sends every instance through it."""
-    rows = [vec_input(u, f"row{k}") for k in range(3)]
-    translation = vec_input(u, "translation")
-    origin, direction = vec_input(u, "origin"), vec_input(u, "direction")
-    moved_origin = u.vadd(tuple(u.dot(row, origin) for row in rows), translation)
-    moved_direction = tuple(u.dot(row, direction) for row in rows)
-    for axis, o, d in zip("xyz", moved_origin, moved_direction):
-        u.output(f"local_origin_{axis}", o)
-        u.output(f"local_direction_{axis}", d)
-
-
-def ray_setup_unit(u: Unit) -> None:
-    """slab_reciprocals (src/kernel/bvh.hpp) with ScalarTraits<Fixed>::slab_reciprocal: 1 / d per axis, truncated,
-    the largest value where d is 0, which is Fixed's operator/ on 1 and d. The traversal engine's ray entry."""
-    direction = vec_input(u, "direction")
-    one = u.one()
-    for axis, d in zip("xyz", direction):
-        u.output(f"inv_{axis}", u.div(one, d))
-
-
-UNITS = {"box": box_unit, "triangle": triangle_unit, "quad": quad_unit, "sphere": sphere_unit,
-         "moving_sphere": moving_sphere_unit, "ray_setup": ray_setup_unit, "instance_ray": instance_ray_unit,
-         "sphere_crossings": sphere_crossings_unit, "medium": medium_unit}
-
-
-def build(name: str, integer_bits: int, fraction_bits: int, **options) -> Unit:
-    """The unit in Q(integer_bits).(fraction_bits), or in float32 where both are 0 (parse_format("float32"))."""
-    u = FloatUnit(name, **options) if integer_bits == 0 and fraction_bits == 0 else Unit(name, integer_bits, fraction_bits, **options)
-    UNITS[name](u)
+def build_from_graph(u: Unit, graph: dict) -> Unit:
+    """The unit `u` (empty, in its format) made from its recorded graph."""
+    joiner = _Joiner(graph)
+    only_on_hit = [only for _, only in graph["outputs"]]
+    hit, outputs = joiner.join(graph["paths"], 0, only_on_hit)
+    builder = _Builder(u, joiner, graph)
+    if graph["has_hit"]:
+        u.output("hit", builder.value(hit))
+    for (name, _), e in zip(graph["outputs"], outputs):
+        u.output(name, builder.value(e))
     return u
+
+
+def build(name: str, integer_bits: int, fraction_bits: int, graphs_file: str = "", recorded: dict | None = None, **options) -> Unit:
+    """The unit in Q(integer_bits).(fraction_bits), or in float32 where both are 0 (parse_format("float32")), from the
+    kernel's recorded dataflow (exact products in fixed point of up to 32 bits, as the kernel keeps them)."""
+    if integer_bits == 0 and fraction_bits == 0:
+        if name not in FLOAT32_UNITS:
+            raise ValueError(f"the {name} unit is made in fixed point only")
+        u, kind = FloatUnit(name, **options), "float"
+    else:
+        u = Unit(name, integer_bits, fraction_bits, **options)
+        kind = "exact_fixed" if u.W <= 32 else "rounded_fixed"
+    return build_from_graph(u, (recorded or graphs(graphs_file))[kind][name])
 
 
 def ports_header(u: Unit, model_class: str = "") -> str:
@@ -340,12 +311,19 @@ def main() -> int:
     parser.add_argument("--root-steps", type=int, default=1, help="root digits per pipeline stage")
     parser.add_argument("--fault", default="", help="build a deliberately wrong unit: truncate-products")
     parser.add_argument("--engine-units", help="write the traversal engine's units in --format here, as one file")
+    parser.add_argument("--graphs", default="", help="the units' graphs as --record-graphs wrote them (else recorded now)")
+    parser.add_argument("--record-graphs", help="record the units' graphs from the kernel source into this file, and stop")
+    parser.add_argument("--cxx", default="", help="the C++ compiler to record with (default: $CXX, else c++)")
     parser.add_argument("--list", action="store_true")
     parser.add_argument("--costs", action="store_true")
     args = parser.parse_args()
     if args.list:
         print("\n".join(sorted(UNITS)))
         return 0
+    if args.record_graphs:
+        Path(args.record_graphs).write_text(json.dumps(record_graphs(args.cxx)))
+        return 0
+    graphs(args.graphs)
     integer_bits, fraction_bits = parse_format(args.format)
     options = dict(divide_steps_per_stage=args.divide_steps, root_steps_per_stage=args.root_steps, fault=args.fault)
     if args.engine_units:
@@ -353,7 +331,7 @@ def main() -> int:
         return 0
     if args.costs:
         print("unit,format,adds,multiplies,divides,square_roots,compares,exact_multiplies,exact_adds,latency")
-        for name in sorted(UNITS):
+        for name in sorted(UNITS if (integer_bits, fraction_bits) != (0, 0) else FLOAT32_UNITS):
             u = build(name, integer_bits, fraction_bits, **options)
             c = u.costs()
             print(f"{name},{format_label(u)},{c.add},{c.mul},{c.div},{c.sqrt},{c.compare},{c.exact_mul},{c.exact_add},{u.latency()}")

@@ -1,6 +1,7 @@
-// The operand sets of the intersection units: which kernel values, in which order (the order of the units' inputs in
-// tools/hardware/units.py), how a recorder packs them from the kernel's structs, and the C++ model of each unit: the
-// kernel function itself, called on the unpacked values.
+// The operand sets of the hardware units: which kernel values, in which order (the order of the units' ports), how a
+// recorder packs them from the kernel's structs, and the C++ model of each unit: the kernel function itself, called
+// on the unpacked values. The model is also what the units are made from: record_graphs.cpp runs it on a scalar type
+// that records each operation, and tools/hardware/units.py writes the recorded dataflow as Verilog.
 #pragma once
 
 #include <array>
@@ -205,6 +206,114 @@ struct SphereOperands {
     Hit<T> hit{};
     out[0] = intersect_sphere(center, radius, ray, t_min, t_max, hit);
     out[1] = raw(hit.t), out[2] = raw(hit.b1), out[3] = raw(hit.b2);
+  }
+};
+
+// The traversal engine's other units (src/backends/rtl/traversal_engine.v). Outputs that are not named "hit" first are
+// always written; `kOnlyOnHit` marks those that mean something only where the unit reports a hit.
+
+// A ray's slab reciprocals, as make_box_ray forms them for the binary tree.
+struct RaySetupOperands {
+  static constexpr std::string_view kName = "ray_setup";
+  static constexpr std::array<std::string_view, 3> kInputs = {"direction_x", "direction_y", "direction_z"};
+  static constexpr std::array<std::string_view, 3> kOutputs = {"inv_x", "inv_y", "inv_z"};
+  template <class T>
+  static void model(const i64* in, i64* out) {
+    Ray<T> ray{};
+    ray.direction = get3<T>(in);
+    const Vec3<T> inv = slab_reciprocals(ray);
+    put(out, inv);
+  }
+};
+
+// A sphere at its place at the ray's time, as intersect_geometry tests a moving one; a standing sphere is one with
+// velocity 0 and time0 0 (the product is 0 and the sum the centre, exactly).
+struct MovingSphereOperands {
+  static constexpr std::string_view kName = "moving_sphere";
+  static constexpr std::array<std::string_view, 17> kInputs = {
+      "center0_x", "center0_y", "center0_z", "radius",      "velocity_x",  "velocity_y",  "velocity_z", "time0", "ray_time",
+      "origin_x",  "origin_y",  "origin_z",  "direction_x", "direction_y", "direction_z", "t_min",      "t_max"};
+  static constexpr std::array<std::string_view, 4> kOutputs = {"hit", "t", "b1", "b2"};
+  static constexpr std::array<bool, 4> kOnlyOnHit = {false, true, true, true};
+  template <class T>
+  static void model(const i64* in, i64* out) {
+    MovingSphere<T> s;
+    s.center0 = get3<T>(in);
+    s.radius = get1<T>(in);
+    s.velocity = get3<T>(in);
+    s.time0 = get1<T>(in);
+    Ray<T> ray{};
+    ray.time = get1<T>(in);
+    ray.origin = get3<T>(in);
+    ray.direction = get3<T>(in);
+    const T t_min = get1<T>(in), t_max = get1<T>(in);
+    Hit<T> hit{};
+    out[0] = intersect_sphere(moving_sphere_center(s, ray.time), s.radius, ray, t_min, t_max, hit);
+    out[1] = raw(hit.t), out[2] = raw(hit.b1), out[3] = raw(hit.b2);
+  }
+};
+
+// A world ray taken into a mesh instance's space; an instance without a transform is one with the identity (1 x rounds
+// to x, 0 y is 0, exactly).
+struct InstanceRayOperands {
+  static constexpr std::string_view kName = "instance_ray";
+  static constexpr std::array<std::string_view, 18> kInputs = {
+      "row0_x",        "row0_y",        "row0_z",   "row1_x",   "row1_y",   "row1_z",      "row2_x",      "row2_y",      "row2_z",
+      "translation_x", "translation_y", "translation_z", "origin_x", "origin_y", "origin_z", "direction_x", "direction_y", "direction_z"};
+  static constexpr std::array<std::string_view, 6> kOutputs = {"local_origin_x", "local_direction_x", "local_origin_y",
+                                                               "local_direction_y", "local_origin_z", "local_direction_z"};
+  template <class T>
+  static void model(const i64* in, i64* out) {
+    InstanceTransform<T> transform{};
+    for (Vec3<T>& row : transform.to_mesh.row) row = get3<T>(in);
+    transform.to_mesh.translation = get3<T>(in);
+    Ray<T> ray{};
+    ray.origin = get3<T>(in);
+    ray.direction = get3<T>(in);
+    MeshData<T> meshes{};
+    meshes.transforms = &transform;
+    const Ray<T> local = instance_ray(meshes, MeshInstance<T>{0, 0}, ray);
+    out[0] = raw(local.origin.x), out[1] = raw(local.direction.x), out[2] = raw(local.origin.y);
+    out[3] = raw(local.direction.y), out[4] = raw(local.origin.z), out[5] = raw(local.direction.z);
+  }
+};
+
+// Where the line of a ray crosses a medium's spherical boundary (widen_to_crossings).
+struct SphereCrossingsOperands {
+  static constexpr std::string_view kName = "sphere_crossings";
+  static constexpr std::array<std::string_view, 10> kInputs = {"origin_x",    "origin_y", "origin_z", "direction_x", "direction_y",
+                                                               "direction_z", "center_x", "center_y", "center_z",    "radius"};
+  static constexpr std::array<std::string_view, 3> kOutputs = {"hit", "near", "far"};
+  static constexpr std::array<bool, 3> kOnlyOnHit = {false, true, true};
+  template <class T>
+  static void model(const i64* in, i64* out) {
+    Ray<T> ray{};
+    ray.origin = get3<T>(in);
+    ray.direction = get3<T>(in);
+    const Vec3<T> center = get3<T>(in);
+    const T radius = get1<T>(in);
+    T near(0), far(0);
+    out[0] = sphere_roots(center, radius, ray, near, far);
+    out[1] = raw(near), out[2] = raw(far);
+  }
+};
+
+// What a medium does to a ray once its boundary's crossings are known (medium_event, from t_min 0): a shadow ray
+// (`shadow` not 0) gets the optical depth it adds, another the free-flight distance drawn beside it tested.
+struct MediumOperands {
+  static constexpr std::string_view kName = "medium";
+  static constexpr std::array<std::string_view, 7> kInputs = {"first", "last", "t_max", "distance", "neg_inv_density", "optical_depth", "shadow"};
+  static constexpr std::array<std::string_view, 3> kOutputs = {"hit", "t", "optical_depth_out"};
+  static constexpr std::array<bool, 3> kOnlyOnHit = {false, true, false};
+  template <class T>
+  static void model(const i64* in, i64* out) {
+    const T first = get1<T>(in), last = get1<T>(in), t_max = get1<T>(in), distance = get1<T>(in);
+    const T neg_inv_density = get1<T>(in);
+    T optical_depth = get1<T>(in);
+    const bool shadow = get1<T>(in) != T(0);
+    Hit<T> hit{};
+    out[0] = medium_event(first, last, T(0), t_max, neg_inv_density, shadow ? &optical_depth : nullptr, [&] { return distance; }, hit);
+    out[1] = raw(hit.t), out[2] = raw(optical_depth);
   }
 };
 
