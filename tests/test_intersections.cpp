@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "kernel/fixed_point.hpp"
@@ -460,6 +461,18 @@ using Q16 = Fixed<16, 16>;
 Vec3d as_double(const Vec3<Q16>& v) { return {static_cast<double>(v.x), static_cast<double>(v.y), static_cast<double>(v.z)}; }
 Ray<double> as_double(const Ray<Q16>& r) { return {as_double(r.origin), as_double(r.direction), static_cast<double>(r.time)}; }
 
+// The crossings of the line through the rounded origin along the rounded direction (not unit: 1 to a step or so),
+// in long double: a t^2 + 2 b t + c with the discriminant a r^2 - |oc x d|^2.
+std::pair<long double, long double> line_crossings(const Vec3<Q16>& center, Q16 radius, const Ray<Q16>& ray) {
+  auto ld = [](Q16 x) { return static_cast<long double>(static_cast<double>(x)); };
+  const long double ox = ld(ray.origin.x - center.x), oy = ld(ray.origin.y - center.y), oz = ld(ray.origin.z - center.z);
+  const long double dx = ld(ray.direction.x), dy = ld(ray.direction.y), dz = ld(ray.direction.z), r = ld(radius);
+  const long double a = dx * dx + dy * dy + dz * dz, b = ox * dx + oy * dy + oz * dz;
+  const long double cx = oy * dz - oz * dy, cy = oz * dx - ox * dz, cz = ox * dy - oy * dx;
+  const long double root = std::sqrt(a * r * r - (cx * cx + cy * cy + cz * cz));
+  return {(-b - root) / a, (-b + root) / a};
+}
+
 // seed-default's ground (radius 1000, centre 1000 below the origin) seen from its camera, at scale 1: r^2 = 1e6 is
 // beyond Q16.16 (32768), which made every ray miss (or forced a scale of 1/32). The discriminant is now exact and
 // rounded once, by its root.
@@ -473,13 +486,31 @@ TEST(SphereIntersectionInFixedPoint, LargeSphereIsHitPreciselyWithoutScalingInQ1
     const Ray<Q16> ray = make_ray<Q16>({13, 3, 3}, target - Vec3d{13, 3, 3});
     Hit<Q16> hit;
     ASSERT_TRUE(intersect_sphere(to<Q16>(center), Q16(radius), ray, Q16(0), largest<Q16>(), hit));
-    Hit<double> reference;
-    ASSERT_TRUE(intersect_sphere(center, radius, as_double(ray), 0.0, 1e30, reference));
-    // b and perp carry about a step each (2^-16), |perp|^2 about 2 |perp| steps (0.05 at 1000), and the root halves
-    // that over itself (at least 90 here): a few 1e-4.
-    EXPECT_NEAR(static_cast<double>(hit.t), reference.t, 1e-3);
+    // The rounded ray's line (its direction unit only to a step or so) meets the ground here; the test's crossing
+    // is one quotient of exact values (the next test bounds it by a step).
+    EXPECT_NEAR(static_cast<double>(hit.t), static_cast<double>(line_crossings(to<Q16>(center), Q16(radius), ray).first), 1e-3);
   }
   EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+}
+
+// The same ground, near and far: the crossings are those of the rounded ray's line to within a step (one quotient,
+// truncated, and the discriminant's root rounded once), whatever the radius. When the test assumed a unit direction
+// they were off by up to a few 1e-4 here (a step of the direction's length per unit of the radius).
+TEST(SphereIntersectionInFixedPoint, CrossingsOfALargeSphereAreThoseOfTheRoundedLineInQ16_16) {
+  const Vec3<Q16> center = to<Q16>(Vec3d{0, -1000, 0});
+  const Q16 radius(1000);
+  test::TestRandom rng(31);
+  double largest_error = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Vec3d target{8 * (rng.uniform() - 0.5), 0, 8 * (rng.uniform() - 0.5)};
+    const Ray<Q16> ray = make_ray<Q16>({13, 3, 3}, target - Vec3d{13, 3, 3});
+    Q16 near, far;
+    ASSERT_TRUE(sphere_roots(center, radius, ray, near, far));
+    const auto [expected_near, expected_far] = line_crossings(center, radius, ray);
+    largest_error = std::max({largest_error, std::abs(static_cast<double>(near) - static_cast<double>(expected_near)),
+                              std::abs(static_cast<double>(far) - static_cast<double>(expected_far))});
+  }
+  EXPECT_LT(largest_error, 2.0 / 65536);
 }
 
 // A Cornell wall (555 units square) from 800 units away in Q16.16 at scale 1: du = 1/555 keeps 7 significant bits
@@ -578,6 +609,9 @@ TEST(SphereIntersectionInFixedPoint, HitOnALargeSphereIsDescribedPreciselyInQ16_
     // put it 0.015 off), and the normal unit to within a few steps.
     EXPECT_NEAR(length(as_double(at.p) - center), 1000, 1e-3);
     EXPECT_NEAR(length(as_double(at.normal)), 1, 1e-4);
+    // A ray leaving it starts a few steps off (kSpawnRoundings steps): a new test of the ground is exact but for a
+    // step (0.12 units when the test assumed a unit direction, more than the small spheres resting on the ground).
+    EXPECT_LT(static_cast<double>(at.offset), 16.0 / 65536);
   }
   EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
 }

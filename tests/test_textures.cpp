@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "image/image_io.hpp"
+#include "kernel/fixed_point.hpp"
 #include "test_support.hpp"
 
 namespace pt {
@@ -129,6 +130,31 @@ TEST(ImageTextures, LookupsBlendNeighboursAndWrapAround) {
     const Color<float> shifted = image_lookup(image.data(), image.texture, 1.0f / 3.0f + shift, 0.75f + shift);
     EXPECT_NEAR(shifted.x, between.x, 1e-5f) << shift;
   }
+}
+
+// An image wider than a fixed-point format's range (1024 texels in Q10.10, whose largest value is 512) is looked up
+// everywhere as double looks it up: the texel position is formed in integers, not as u times the width in the format
+// (which saturated at 512 and read the left half of the image for every u beyond it).
+TEST(ImageTextures, ImagesWiderThanTheFormatsRangeAreReadAcrossTheirWholeWidthInQ10_10) {
+  using Q = Fixed<10, 10>;
+  constexpr u32 kWidth = 1024;
+  std::vector<u8> texels;
+  for (u32 i = 0; i < kWidth; ++i)
+    for (const u32 byte : {i & 255u, i >> 2, 255 - (i >> 2)}) texels.push_back(static_cast<u8>(byte));
+  const std::vector<float> decode = srgb_decode_table();
+  const ImageTexture<double> wide{kWidth, 1, 0, 1.0, Color<double>::splat(1.0), 1};
+  const ImageTexture<Q> narrow{kWidth, 1, 0, Q(1), Color<Q>::splat(Q(1)), 1};
+  const TextureData<double> data{texels.data(), decode.data(), nullptr, nullptr};
+  const TextureData<Q> narrow_data{texels.data(), decode.data(), nullptr, nullptr};
+  // u = i / 1024 is exact in both: halfway between the centres of texels i - 1 and i.
+  double largest_difference = 0;
+  for (u32 i = 0; i < kWidth; ++i) {
+    const Color<double> expected = image_lookup(data, wide, i / 1024.0, 0.5);
+    const Color<Q> got = image_lookup(narrow_data, narrow, Q::from_raw(static_cast<Q::Storage>(i)), Q(0.5));
+    for (int c = 0; c < 3; ++c) largest_difference = std::max(largest_difference, std::abs(static_cast<double>(got[c]) - expected[c]));
+  }
+  // Q10.10 holds 1/255 as 4/1024 (0.4 % small): up to 4 steps of 2^-10 at byte 255, and one more for the blend.
+  EXPECT_LE(largest_difference, 5.0 / 1024);
 }
 
 }  // namespace

@@ -383,6 +383,8 @@ struct ScalarTraits<Fixed<I, F>> {
     if (v < (i128(1) << 64)) return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<std::uint64_t>(static_cast<std::uint64_t>(v)))));
     return T::from_raw(clamp_to_range(static_cast<i128>(fixed_detail::isqrt<u128>(static_cast<u128>(v)))));
   }
+  // The root of a value with 4F fraction bits (0 for a negative one), rounded to nearest and kept exact, with 2F.
+  PT_HD static constexpr i128 exact_root(i128 v) { return v <= 0 ? 0 : static_cast<i128>(fixed_detail::isqrt<u128>(static_cast<u128>(v))); }
   // The unit vector along (x, y, z) (exact values with 2F fraction bits, not all zero) and its length, each rounded
   // once: the vector is first shifted right until its components have at most 30 bits (its direction keeps 29 bits
   // at least, beyond any format of 32), so that the squares and their sum fit 64 bits. A triangle's normal from its
@@ -441,6 +443,13 @@ struct ScalarTraits<Fixed<I, F>> {
   // format (a 160-pixel-wide image in Q8.24, whose largest value is 128).
   PT_HD static constexpr T index_fraction(u32 index, T offset, u32 count) {
     return T::from_raw(clamp_to_range(((static_cast<i128>(index) << F) + offset.raw) / static_cast<i128>(count)));
+  }
+  // The texel position w count - 1/2 in integers: the count (an image's width, 1024 where Q8.24 reaches 128) need not
+  // fit the format, and the index and fraction are exact.
+  PT_HD static constexpr void texel_position(T w, u32 count, i32& index, T& fraction) {
+    const i128 position = static_cast<i128>(w.raw) * count - (i128(1) << (F - 1));
+    index = static_cast<i32>(position >> F);
+    fraction = T::from_raw(static_cast<Raw>(position & ((i128(1) << F) - 1)));
   }
   PT_HD static constexpr Raw clamp_to_range(i128 v) {
     return v > T::kMaxRaw ? T::kMaxRaw : (v < -static_cast<i128>(T::kMaxRaw) ? -T::kMaxRaw : static_cast<Raw>(v));

@@ -78,6 +78,14 @@ struct ScalarTraits<float> {
   static double quad_extent(double) { return 1; }
   // (index + offset) / count: where a sample lies across the image, for pixel `index` of `count`.
   PT_HD static float index_fraction(u32 index, float offset, u32 count) { return (static_cast<float>(index) + offset) / static_cast<float>(count); }
+  // Where w (in [0, 1]) falls among `count` texels centred at (i + 1/2) / count: the texel at or below it (-1 below
+  // the first centre) and the fraction of the way to the next.
+  PT_HD static void texel_position(float w, u32 count, i32& index, float& fraction) {
+    const float x = w * static_cast<float>(count) - 0.5f;
+    const float below = ::floorf(x);
+    index = static_cast<i32>(below);
+    fraction = x - below;
+  }
 };
 
 template <>
@@ -110,6 +118,12 @@ struct ScalarTraits<double> {
   static double quad_extent(double) { return 1; }
   PT_HD static double index_fraction(u32 index, double offset, u32 count) {
     return (static_cast<double>(index) + offset) / static_cast<double>(count);
+  }
+  PT_HD static void texel_position(double w, u32 count, i32& index, double& fraction) {
+    const double x = w * static_cast<double>(count) - 0.5;
+    const double below = ::floor(x);
+    index = static_cast<i32>(below);
+    fraction = x - below;
   }
 };
 

@@ -250,21 +250,24 @@ PT_HD inline ExactVec3<T> exact_cross(const Vec3<T>& a, const Vec3<T>& b) {
 // The two distances at which the ray's line crosses the sphere, nearest first; false where it misses. With a unit
 // direction the quadratic is t^2 + 2 b t + c; the discriminant is formed from the perpendicular distance to the
 // centre, which stays accurate for large spheres seen from close by.
-// With exact products: b = round(oc.d), perp = oc - b d (rounded per operation), and the discriminant
-// r^2 - |perp|^2 exact (2F fraction bits), its root rounded to nearest; no squared distance is ever rounded to the
-// format, so the scene need not be scaled to keep squares in range (a sphere of radius 1000 in Q16.16).
+// With exact products the direction need not be unit: with a = d.d, b = oc.d and oc x d exact (2F fraction bits),
+// the quadratic a t^2 + 2 b t + c has the discriminant a r^2 - |oc x d|^2 (Lagrange's identity), exact (4F), its
+// root rounded to nearest once and kept with 2F, and each crossing (-b -+ root) / a one quotient: the crossings of
+// the line through the rounded origin along the rounded direction, within a step, whatever the radius (a sphere of
+// radius 1000 in Q16.16 without scaling the scene; nothing squared is ever rounded to the format).
 template <class T>
 PT_HD inline bool sphere_roots(const Vec3<T>& center, T radius, const Ray<T>& ray, T& near, T& far) {
   if constexpr (ScalarTraits<T>::kExactProducts) {
     using S = ScalarTraits<T>;
     const Vec3<T> oc = ray.origin - center;
-    const T b = S::round_exact(exact_dot(oc, ray.direction));
-    const Vec3<T> perpendicular = oc - b * ray.direction;
-    const auto discriminant = S::exact(radius) * S::exact(radius) - exact_dot(perpendicular, perpendicular);
+    const auto a = exact_dot(ray.direction, ray.direction);
+    const auto b = exact_dot(oc, ray.direction);
+    const ExactVec3<T> across = exact_cross(oc, ray.direction);
+    const auto discriminant = S::exact(radius) * S::exact(radius) * a - (across.x * across.x + across.y * across.y + across.z * across.z);
     if (discriminant < 0) return false;
-    const T root = S::exact_sqrt(discriminant);
-    near = -b - root;
-    far = -b + root;
+    const auto root = S::exact_root(discriminant);
+    near = S::exact_quotient(-b - root, a);
+    far = S::exact_quotient(-b + root, a);
     return true;
   }
   const Vec3<T> oc = ray.origin - center;
@@ -506,11 +509,10 @@ inline constexpr double kSpawnRoundings = 8;
 // The magnitude of the coordinates a hit point's error bound grows with. With exact products (fixed point, kernel
 // traits) a new test of a plane finds the side of the plane the ray starts on exactly, and the re-projected or
 // interpolated point lies within a few steps of the plane whatever the coordinates' size: the bound of quads and
-// triangles is kSpawnRoundings steps, absolute. A sphere's test forms the distance from the centre across the ray
-// as if the direction were unit; its length is 1 only to a step, so that distance carries a step per unit of
-// |origin - centre|, the radius: the bound grows with the radius, not with the centre's coordinates (with Q16.16 at
-// scale 1 the bound of |centre| + radius moved rays 0.24 units off seed-default's ground, more than the radius,
-// 0.2, of the small spheres resting on it; the radius alone gives 0.12).
+// triangles is kSpawnRoundings steps, absolute. So is a sphere's: its test finds the line's crossings exactly but for
+// one quotient (sphere_roots), and the point re-projected onto it lies within a few steps. (When the test assumed a
+// unit direction, whose length is 1 only to a step, the distance across the ray carried a step per unit of the
+// radius, and the bound grew with it: 0.12 units off seed-default's ground, radius 1000, in Q16.16 at scale 1.)
 template <class T>
 PT_HD inline Vec3<T> spawn_magnitude(const Vec3<T>& magnitude) {
   if constexpr (ScalarTraits<T>::kExactProducts)
@@ -645,7 +647,8 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
 
     PT_HD void sphere(const Vec3<T>& center, T radius) const {
       // Re-projected onto the sphere, the point's error is that of the centre and the radius, however long the ray.
-      // A new test from there rounds the squared radius and distances: an error of the radius's size. The normal is
+      // A new test from there rounds the squared radius and distances (floating point): an error of the radius's size
+      // (fixed point with exact products: a step, spawn_magnitude). The normal is
       // the same direction divided by the radius (unit to within the hit point's error), so that the shading, which
       // waits for it, does not wait for the square root.
       const Vec3<T> from_center = at.p - center;
@@ -664,7 +667,7 @@ PT_HD inline SurfacePoint<T> describe_hit(const Primitive<T>& primitive, const T
         outward = from_center / radius;
         at.p = center + from_center * (radius / length(from_center));
       }
-      set_spawn_offset(at, outward, rounding_error(spawn_magnitude(vabs(center)) + Vec3<T>::splat(radius), constant<T>(kSpawnRoundings)));
+      set_spawn_offset(at, outward, rounding_error(spawn_magnitude(vabs(center) + Vec3<T>::splat(radius)), constant<T>(kSpawnRoundings)));
       set_face_normal(at, ray, outward);
       if (needs_uv) sphere_uv(outward, at.u, at.v);
       // u grows as atan2(z, x) falls (sphere_uv), v towards +y: dp/du is along (z, 0, -x), and dp/dv along

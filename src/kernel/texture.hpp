@@ -122,15 +122,15 @@ template <class T>
 PT_HD inline Color<T> image_lookup(const TextureData<T>& data, const ImageTexture<T>& image, T u, T v) {
   const T su = u * image.repeat, sv = v * image.repeat;
   const T wu = su - floor(su), wv = sv - floor(sv);
-  const T x = wu * T(image.width) - constant<T>(0.5);
-  const T y = (T(1) - wv) * T(image.height) - constant<T>(0.5);
-  const T x0f = floor(x), y0f = floor(y);
-  const T fx = x - x0f, fy = y - y0f;
+  i32 column, row;
+  T fx, fy;
+  ScalarTraits<T>::texel_position(wu, image.width, column, fx);
+  ScalarTraits<T>::texel_position(T(1) - wv, image.height, row, fy);
   const i32 w = static_cast<i32>(image.width), h = static_cast<i32>(image.height);
   // Neighbours of a texel inside the image need no division; the modulo is for the wrap-around.
   auto wrap = [](i32 a, i32 n) { return a >= 0 && a < n ? a : ((a % n) + n) % n; };
-  const i32 x0 = wrap(static_cast<i32>(x0f), w), x1 = wrap(static_cast<i32>(x0f) + 1, w);
-  const i32 y0 = wrap(static_cast<i32>(y0f), h), y1 = wrap(static_cast<i32>(y0f) + 1, h);
+  const i32 x0 = wrap(column, w), x1 = wrap(column + 1, w);
+  const i32 y0 = wrap(row, h), y1 = wrap(row + 1, h);
   auto texel = [&](i32 px, i32 py) {
     const u8* t = data.texels + 3u * (image.offset + static_cast<u32>(py) * image.width + static_cast<u32>(px));
     if (image.linear) return Color<T>{T(t[0]), T(t[1]), T(t[2])} * constant<T>(1.0 / 255.0);

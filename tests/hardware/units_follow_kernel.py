@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-# The hardware units follow the kernel source: a copy of the kernel with one formula changed (sphere_roots forms
+# The hardware units follow the kernel source: a copy of the kernel with one formula changed (sphere_roots divides
 # -(b + root) instead of -b - root) gives other Verilog for the three units that call it and the same for the others;
 # and a kernel that uses an operation no hardware operator implements stops the recording with the compiler's error
 # instead of making a unit.
@@ -43,13 +43,14 @@ def main() -> int:
     failures = []
     before = verilog(units.record_graphs(args.cxx))
     with tempfile.TemporaryDirectory() as work:
-        after = verilog(units.record_graphs(args.cxx, edited_kernel(Path(work), "near = -b - root;", "near = -(b + root);")))
+        sources = edited_kernel(Path(work), "near = S::exact_quotient(-b - root, a);", "near = S::exact_quotient(-(b + root), a);")
+        after = verilog(units.record_graphs(args.cxx, sources))
     for name in units.UNITS:
         changed = before[name] != after[name]
         if changed != (name in SPHERE_USERS):
             failures.append(f"{name}: Verilog {'changed' if changed else 'did not change'} with sphere_roots' formula")
     with tempfile.TemporaryDirectory() as work:
-        sources = edited_kernel(Path(work), "const T root = S::exact_sqrt(discriminant);", "const T root = abs(S::exact_sqrt(discriminant));")
+        sources = edited_kernel(Path(work), "near = S::exact_quotient(-b - root, a);", "near = abs(S::exact_quotient(-b - root, a));")
         try:
             units.record_graphs(args.cxx, sources)
             failures.append("a kernel calling abs, which no unit implements, was recorded")

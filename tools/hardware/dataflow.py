@@ -15,7 +15,7 @@
 # kExactProducts, src/kernel/shapes.hpp): xmul, xadd, xsub give the exact result, as wide as it needs, with the
 # operands' fraction bits added (2F, 3F); xlt .. xeq compare such values; round_exact rounds one with 2F fraction bits
 # to the format (half up, saturated); exact_sqrt takes the root of one with 2F fraction bits (rounded to nearest,
-# clamped); quotient(n, d) is trunc(n * 2^F / d) for n and d with the same fraction bits, clamped, d = 0 giving
+# clamped), exact_root that of one with 4F, kept exact with 2F; quotient(n, d) is trunc(n * 2^F / d) for n and d with the same fraction bits, clamped, d = 0 giving
 # +-max by the sign of n (the divider of `div`, for any widths); shift_quotient(a, e) is a / e for an e whose raw
 # value is a power of two and a >= 0 (a quad's extents), a shift.
 # Values are signed W = I + F bit integers (the raw field of Fixed) unless exact. Every operation but the bit logic ends in a
@@ -193,6 +193,15 @@ class Unit:
         assert v.frac == 2 * self.F
         return self._value("xsqrt", (v,), self.W, self.root_latency(v.width - 1))  # the magnitude of a positive v
 
+    def exact_root(self, v):
+        """The root of an exact value with an even number of fraction bits, rounded to nearest, kept exact (half the
+        fraction bits; 0 for v <= 0)."""
+        assert v.frac % 2 == 0
+        digits = v.width // 2
+        r = self._value("xroot", (v,), digits + 2, self.root_latency(v.width - 1))
+        r.frac = v.frac // 2
+        return r
+
     def quotient(self, n, d, quotient_bits: int | None = None):
         """trunc(n * 2^F / d) clamped; quotient_bits < W - 1 where the result is known to be small when it matters."""
         assert n.frac == d.frac
@@ -267,7 +276,7 @@ class Unit:
             if v.op in ("add", "sub"): c.add += 1
             elif v.op == "mul": c.mul += 1
             elif v.op in ("div", "quotient", "shift_quotient"): c.div += 1
-            elif v.op in ("sqrt", "xsqrt"): c.sqrt += 1
+            elif v.op in ("sqrt", "xsqrt", "xroot"): c.sqrt += 1
             elif v.op == "xmul": c.exact_mul += 1
             elif v.op in ("xadd", "xsub", "round"): c.exact_add += 1
             elif v.op in ("lt", "le", "eq", "min", "max"): c.compare += 1
@@ -350,10 +359,10 @@ class Emitter:
             module = self.module(root_module, u, W + F)
             self.decls.append(f"  {module} {n}_root(.clk(clk), .v({{{a[0]}, {F}'d0}}), .root({n}));")
             self.decls[-2] = f"  wire signed [{W - 1}:0] {n};"
-        elif v.op == "xsqrt":
-            module = self.module(root_module, u, v.args[0].width)
+        elif v.op in ("xsqrt", "xroot"):
+            module = self.module(root_module, u, v.args[0].width, v.op == "xroot")
             self.decls.append(f"  {module} {n}_root(.clk(clk), .v({a[0]}), .root({n}));")
-            self.decls[-2] = f"  wire signed [{W - 1}:0] {n};"
+            self.decls[-2] = f"  wire signed [{v.width - 1}:0] {n};"
         elif v.op == "xmul":
             self.body.append(f"    {n} <= {a[0]} * {a[1]};")
         elif v.op in ("xadd", "xsub"):
@@ -496,19 +505,20 @@ def divider_module(u: Unit, wn: int, wd: int, qb: int):
     return name, "\n".join(L)
 
 
-def root_module(u: Unit, wv: int):
+def root_module(u: Unit, wv: int, exact: bool = False):
     """The root of a signed value v (wv bits) with 2F fraction bits, as a value with F: isqrt(v) rounded to nearest
     (one more where the remainder exceeds the root: v > (root + 1/2)^2), 0 for v <= 0, clamped to the range. Two
-    radicand bits per digit, K digits per stage. Fixed's sqrt(x) is the root of x << F."""
+    radicand bits per digit, K digits per stage. Fixed's sqrt(x) is the root of x << F. `exact`: the rounded root
+    as it is, m + 2 bits (exact_root), not clamped."""
     W, K = u.W, u.root_steps
     n = wv - 1  # the magnitude of a positive v
     m = (n + 1) // 2
     n2 = 2 * m
     RW = m + 3
     stages = -(-m // K)
-    name = f"fixed_sqrt_q{u.I}_{u.F}_r{wv}"
+    name = f"fixed_sqrt_q{u.I}_{u.F}_r{wv}" + ("_exact" if exact else "")
     L = [f"// Square root for Q{u.I}.{u.F} of a {wv}-bit value: {2 + stages} clocks, {m} root digits, {K} digit(s) per stage.",
-         f"module {name} (input wire clk, input wire signed [{wv - 1}:0] v, output reg signed [{W - 1}:0] root);",
+         f"module {name} (input wire clk, input wire signed [{wv - 1}:0] v, output reg signed [{(m + 1 if exact else W - 1)}:0] root);",
          f"  wire [{n2 - 1}:0] radicand = (v <= 0) ? {n2}'d0 : " + (f"{{{n2 - n}'d0, v[{n - 1}:0]}};" if n2 > n else f"v[{n - 1}:0];"),
          f"  reg [{n2 - 1}:0] v0; reg [{RW - 1}:0] rem0; reg [{m - 1}:0] q0;",
          "  always @(posedge clk) begin v0 <= radicand; rem0 <= 0; q0 <= 0; end"]
@@ -531,7 +541,10 @@ def root_module(u: Unit, wv: int):
         L.append("  end")
     last = stages
     mx = literal(u.max_raw, W)
-    L += [f"  wire [{m}:0] rounded = ({{{RW - m}'d0, q{last}}} < rem{last}) ? {{1'b0, q{last}}} + 1'b1 : {{1'b0, q{last}}};",
+    rounded = f"  wire [{m}:0] rounded = ({{{RW - m}'d0, q{last}}} < rem{last}) ? {{1'b0, q{last}}} + 1'b1 : {{1'b0, q{last}}};"
+    if exact:
+        return name, "\n".join(L + [rounded, "  always @(posedge clk) root <= {1'b0, rounded};", "endmodule", ""])
+    L += [rounded,
           f"  always @(posedge clk) root <= (rounded > {m + 1}'d{u.max_raw}) ? {mx} : " +
           (f"{{{W - m - 1}'d0, rounded}};" if W > m + 1 else f"rounded[{W - 1}:0];") if (1 << (m + 1)) > u.max_raw else
           f"  always @(posedge clk) root <= {{{W - m - 1}'d0, rounded}};",

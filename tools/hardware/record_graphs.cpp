@@ -184,6 +184,7 @@ struct ScalarTraits<hardware::record::Traced<K>> {
   static Exact exact(T x) { return Exact{x.raw}; }  // the same bits, read as a value with F fraction bits
   static T round_exact(Exact v) { return T::make("round", {v.id}); }
   static T exact_sqrt(Exact v) { return T::make("xsqrt", {v.id}); }
+  static Exact exact_root(Exact v) { return Exact{hardware::record::recorder.node("xroot", {v.id})}; }
   static T exact_quotient(Exact n, Exact d) { return T::make("quotient", {n.id, d.id}); }
   static T exact_fraction(Exact n, Exact d) { return T::make("fraction", {n.id, d.id}); }
   static T exact_quotient_by_extent(Exact n, T extent) { return T::make("shift_quotient", {n.id, extent.raw}); }

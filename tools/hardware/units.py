@@ -92,6 +92,7 @@ class _Joiner:
 
     def __init__(self, graph: dict):
         self.table: dict = {}
+        self.kept: set[int] = set()  # nodes the datapath has anyway: a multiplexer of two of them is not pushed down
         self.recorded: list[_Expr] = []
         for op, args, value, name in graph["nodes"]:
             self.recorded.append(self.make(op, tuple(self.recorded[a] for a in args), value, name))
@@ -118,9 +119,35 @@ class _Joiner:
             return self.make("or", (c, b)) if a.value else self.make("and", (self.make("not", (c,)), b))
         if b.op == "bit":
             return self.make("or", (self.make("not", (c,)), a)) if b.value else self.make("and", (c, a))
-        if a.op == b.op and len(a.args) == len(b.args) and a.args and a.value == b.value:
+        both_kept = id(a) in self.kept and id(b) in self.kept
+        if a.op == b.op and len(a.args) == len(b.args) and a.args and a.value == b.value and not both_kept:
             return self.make(a.op, tuple(self.select(c, x, y) for x, y in zip(a.args, b.args)), a.value)
         return self.make("select", (c, a, b))
+
+    def join_all(self, graph: dict):
+        """(hit, outputs) of the unit. Pushing a multiplexer below an operation saves that operation only where neither
+        way's is needed elsewhere: the decisions' bits that the joined datapath keeps (the hit flag's logic and every
+        multiplexer's select) need the values they compare. So the paths are joined twice: first pushing everywhere,
+        to find those bits; then keeping what they reach, so that, say, the sphere's distance is a multiplexer of the
+        two crossings its range tests need anyway rather than a third divider."""
+        only_on_hit = [only for _, only in graph["outputs"]]
+        hit, outputs = self.join(graph["paths"], 0, only_on_hit)
+        roots, seen, stack = [hit], set(), list(outputs)
+        while stack:
+            e = stack.pop()
+            if id(e) in seen:
+                continue
+            seen.add(id(e))
+            if e.op == "select":
+                roots.append(e.args[0])
+            stack.extend(e.args)
+        stack = roots
+        while stack:
+            e = stack.pop()
+            if id(e) not in self.kept:
+                self.kept.add(id(e))
+                stack.extend(e.args)
+        return self.join(graph["paths"], 0, only_on_hit)
 
     def join(self, paths: list, depth: int, only_on_hit: list[bool]):
         """(hit, outputs) of the paths that share their first `depth` decisions."""
@@ -197,6 +224,8 @@ class _Builder:
             return u.round_exact(args[0])
         if op == "xsqrt":
             return u.exact_sqrt(args[0])
+        if op == "xroot":
+            return u.exact_root(args[0])
         if op == "quotient":
             return u.quotient(*args)
         if op == "fraction":  # a quotient in [0, 1] wherever it is used: F + 1 quotient bits
@@ -209,8 +238,7 @@ class _Builder:
 def build_from_graph(u: Unit, graph: dict) -> Unit:
     """The unit `u` (empty, in its format) made from its recorded graph."""
     joiner = _Joiner(graph)
-    only_on_hit = [only for _, only in graph["outputs"]]
-    hit, outputs = joiner.join(graph["paths"], 0, only_on_hit)
+    hit, outputs = joiner.join_all(graph)
     builder = _Builder(u, joiner, graph)
     if graph["has_hit"]:
         u.output("hit", builder.value(hit))
