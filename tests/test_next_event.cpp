@@ -562,5 +562,37 @@ TEST(EveryKindOfLight, WavefrontEqualsMegakernelBitwise) {
   EXPECT_GT(with, without);  // shadow rays are counted
 }
 
+// A small sphere light seen from afar: its density per unit solid angle (160 to 16 000 here) is beyond Q8.24's range
+// (128), where it was clamped and its light samples counted up to 120 times too much. Carried as its reciprocal
+// (kReciprocalLightDensity), both strategies' weights are double's to within the format's rounding.
+TEST(LightDensityInFixedPoint, DensitiesBeyondTheRangeAreCarriedAsReciprocalsInQ8_24) {
+  using Q = Fixed<8, 24>;
+  static_assert(ScalarTraits<Q>::kReciprocalLightDensity && !ScalarTraits<Fixed<16, 16>>::kReciprocalLightDensity);
+  for (const double width : {1e-3, 5.3e-5, 1e-5})
+    for (const double scatter : {0.05, 0.3, 2.0}) {
+      const Q carried = cone_density(Q(1), Q(width));
+      const double density = 1 / (2 * 3.14159265358979323846 * static_cast<double>(Q(width)));
+      // The product 2 pi width rounds by half a step of 2^-24, 0.1 % of the smallest width.
+      const double light = 1 / (density + scatter * scatter / density);
+      EXPECT_NEAR(static_cast<double>(light_sample_weight(carried, Q(scatter))), light, 3e-3 * light + 0x1p-22)
+          << "width " << width << " scatter " << scatter;
+      const double scattered = scatter * scatter / (scatter * scatter + density * density);
+      EXPECT_NEAR(static_cast<double>(scattered_light_weight(Q(scatter), carried)), scattered, 3e-3 * scattered + 0x1p-22)
+          << "width " << width << " scatter " << scatter;
+    }
+  // No density (a light sampling cannot give): the scattered direction takes the whole weight.
+  EXPECT_EQ(static_cast<double>(scattered_light_weight(Q(0.3), Q(0))), 1.0);
+}
+
+// The solid angle below which a rectangle is sampled by area is 3e-4 sr plus 1024 rounding units; Q8.24 cannot hold
+// 1024 (its largest value is 128), which saturated (and was counted) on every light sample of the Cornell scenes.
+TEST(LightDensityInFixedPoint, TheSmallestSampledSolidAngleFitsQ8_24) {
+  using Q = Fixed<8, 24>;
+  const u64 saturations_before = fixed_saturations_this_thread();
+  const Q smallest = smallest_sampled_solid_angle<Q>();
+  EXPECT_EQ(fixed_saturations_this_thread(), saturations_before);
+  EXPECT_NEAR(static_cast<double>(smallest), 3e-4 + 1024 * 0x1p-24, 0x1p-24);
+}
+
 }  // namespace
 }  // namespace pt

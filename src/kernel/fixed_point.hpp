@@ -372,6 +372,9 @@ struct ScalarTraits<Fixed<I, F>> {
   // A datapath forms full-width products anyway; it keeps them wide until the quotient or the root. 64-bit formats
   // would need 192 bits and keep the rounding of every operation.
   static constexpr bool kExactProducts = sizeof(Raw) <= 4;
+  // Light densities carried as their reciprocals where the format has more fraction bits than integer bits
+  // (kernel/lights.hpp): then the reciprocal's range covers far more of the densities lights have.
+  static constexpr bool kReciprocalLightDensity = kExactProducts && F > I;
   using Exact = i128;
   PT_HD static constexpr i128 exact(T x) { return x.raw; }
   // A value with 2F fraction bits, rounded to nearest (half up, as products are) and saturated.

@@ -33,7 +33,8 @@ struct ShadowRay {
   Color<T> weight;  // the path's throughput times the material's scattering towards the light
   T scatter_pdf;    // the density with which the material would have scattered that way
   T distance;       // how far the ray may look for the light: just beyond the point chosen on it
-  T light_pdf;      // the light's density for this direction where sampling gave it, else 0 (light_pdf finds it)
+  T light_pdf;      // the light's density for this direction where sampling gave it, else 0 (light_pdf finds it);
+                    // as the format carries it (light_density, kernel/lights.hpp)
   u32 entry;        // kNoLight: none to trace
   u32 triangle;
 };
@@ -49,11 +50,12 @@ PT_HD inline PathState<T> start_path(const SceneView<T>& scene, u32 x, u32 y, co
   return PathState<T>{camera_ray(scene.camera, scene.params.width, scene.params.height, x, y, random), Color<T>{}, Color<T>::splat(T(1)), 0, 0, T(0)};
 }
 
-// The weight of light that a scattered ray found: the power heuristic against the density `light_density` with which
-// light sampling could have found it too, or 1 where the path could not have (a camera ray, a specular choice).
+// The weight of light that a scattered ray found: the power heuristic against the density `light_density` (as the
+// format carries it) with which light sampling could have found it too, or 1 where the path could not have (a camera
+// ray, a specular choice).
 template <class T>
 PT_HD inline T found_light_weight(const PathState<T>& path, T light_density) {
-  return path.scatter_pdf > T(0) ? mis_weight(path.scatter_pdf, light_density) : T(1);
+  return path.scatter_pdf > T(0) ? scattered_light_weight(path.scatter_pdf, light_density) : T(1);
 }
 
 // The path left the scene: it gathers the background, and ends.
@@ -61,7 +63,8 @@ template <class T>
 PT_HD inline void path_escaped(const SceneView<T>& scene, PathState<T>& path) {
   T weight = T(1);
   if (scene.params.next_event && scene.lights.background != kNoLight)
-    weight = found_light_weight(path, scene.lights.entries[scene.lights.background].pmf * background_pdf(scene.background, path.ray.direction));
+    weight = found_light_weight(path, background_light_density(scene.lights.entries[scene.lights.background].pmf,
+                                                               background_pdf(scene.background, path.ray.direction)));
   path.radiance += path.throughput * background_radiance(scene.background, path.ray.direction) * weight;
   ++path.bounce;
 }
@@ -110,7 +113,7 @@ PT_HOST_NOINLINE PT_HD void sample_next_event(const SceneView<T>& scene, PathSta
   Color<T> weight = path.throughput * value.value;
   if (kept < T(1)) weight = weight / kept;
   if (threshold > T(0) && light.pdf > T(0) && light.brightest > T(0)) {
-    const T most = max_component(weight) * light.brightest * mis_weight_over_pdf(light.pdf, value.pdf);
+    const T most = max_component(weight) * light.brightest * light_sample_weight(light.pdf, value.pdf);
     if (most < threshold) {
       const T keep = max(most / threshold, constant<T>(1.0 / 32));
       if (!(random.template uniform<T>(kDimShadowRoulette) < keep)) return;
@@ -155,7 +158,7 @@ PT_HD Color<T> shadow_contribution_found(const SceneView<T>& scene, const Shadow
     // A direction that rounds into a black texel of an environment image has no density there: it carries nothing.
     if (blocked || !(light_density > T(0))) return Color<T>{};
     return shadow.weight * background_radiance(scene.background, shadow.ray.direction) *
-           (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
+           (light_sample_weight(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
   }
   if (!blocked) {
     if (!quad_light_reached(scene, light.primitive, shadow.ray, hit)) return Color<T>{};
@@ -169,7 +172,7 @@ PT_HD Color<T> shadow_contribution_found(const SceneView<T>& scene, const Shadow
   const T light_density = shadow.light_pdf > T(0) ? shadow.light_pdf : light_pdf(scene, shadow.entry, shadow.ray, hit, at);
   if (!(light_density > T(0))) return Color<T>{};
   return shadow.weight * material_emitted(material, at, scene.textures, scene.texture_data) *
-         (mis_weight_over_pdf(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
+         (light_sample_weight(light_density, shadow.scatter_pdf) * transmittance(optical_depth));
 }
 
 // What a shadow ray adds to its path's radiance: its closest-hit query traced here, then shadow_contribution_found.

@@ -14,12 +14,33 @@ struct LightSample {
   Vec3<T> direction;
   T distance;  // to the point on the light (largest<T>() for the background)
   T pdf;       // the density per unit solid angle where sampling knows it (by solid angle: a cone, a rectangle, the
-               // background), else 0
+               // background), else 0; as the format carries it (light_density)
   T brightest; // the largest channel of the radiance it can bring (the background's own, a shape's brightest), 0
                // where not known
   u32 entry;
   u32 triangle;
 };
+
+// Light densities as the format carries them. Floating point, and fixed point with at least as many integer bits as
+// fraction bits, carry the density per unit solid angle; fixed point with more fraction bits (Q12.20, Q10.22, Q8.24)
+// carries its reciprocal, the solid angle per unit of probability. The density of a small or far light, or of one
+// seen edge-on, grows without bound (beyond Q8.24's 128 for a sphere of radius 0.15 seen from 3 units), where it was
+// clamped and its samples over-weighted; its reciprocal shrinks towards 0 in steps of 2^-F, fine where F is large.
+// Multiple importance sampling needs only its ratio to the scattering density. Either way 0 means none: light
+// sampling cannot give the direction (or, carried as a reciprocal, its density is beyond 2^F).
+template <class T>
+inline constexpr bool kReciprocalLightDensity = ScalarTraits<T>::kReciprocalLightDensity;
+
+// The light density numerator / denominator as the format carries it.
+template <class T>
+PT_HD inline T light_density(T numerator, T denominator) {
+  if constexpr (kReciprocalLightDensity<T>) {
+    using S = ScalarTraits<T>;
+    return S::exact_quotient(S::exact(denominator), S::exact(numerator));
+  } else {
+    return numerator / denominator;
+  }
+}
 
 // The power heuristic (exponent 2) for one sample of each strategy: the weight of the strategy with density `pdf`
 // when the other has `other`. Written with the ratio, so fixed-point formats do not square a large density.
@@ -45,6 +66,47 @@ PT_HD inline T mis_weight_over_pdf(T pdf, T other) {
     return S::exact_quotient(S::exact(pdf) * S::exact(T(1)), S::exact(pdf) * S::exact(pdf) + S::exact(other) * S::exact(other));
   } else {
     return T(1) / (pdf + other * (other / pdf));
+  }
+}
+
+// The weight of light that a scattered direction (density `scatter_pdf` > 0) found, against the density `light`
+// (as the format carries it, 0: none) with which light sampling could have found it.
+template <class T>
+PT_HD inline T scattered_light_weight(T scatter_pdf, T light) {
+  if constexpr (kReciprocalLightDensity<T>) {
+    // (s r)^2 / ((s r)^2 + 1) for the reciprocal r: s r rounded once (where it exceeds the range the weight is 1 to
+    // within 2^-2(I-1)), then one quotient of exact squares.
+    if (!(light > T(0))) return T(1);
+    using S = ScalarTraits<T>;
+    const T ratio = S::round_exact(S::exact(scatter_pdf) * S::exact(light));
+    return S::exact_quotient(S::exact(ratio) * S::exact(ratio), S::exact(ratio) * S::exact(ratio) + S::exact(T(1)) * S::exact(T(1)));
+  } else {
+    return mis_weight(scatter_pdf, light);
+  }
+}
+
+// The factor a light sample of density `light` (as the format carries it, > 0) is counted with: its power-heuristic
+// weight against the scattering density `scatter_pdf`, over its density.
+template <class T>
+PT_HD inline T light_sample_weight(T light, T scatter_pdf) {
+  if constexpr (kReciprocalLightDensity<T>) {
+    // r / (1 + (s r)^2) for the reciprocal r: s r rounded once, then one quotient.
+    using S = ScalarTraits<T>;
+    const T ratio = S::round_exact(S::exact(scatter_pdf) * S::exact(light));
+    return S::exact_quotient(S::exact(light) * S::exact(T(1)), S::exact(T(1)) * S::exact(T(1)) + S::exact(ratio) * S::exact(ratio));
+  } else {
+    return mis_weight_over_pdf(light, scatter_pdf);
+  }
+}
+
+// The density of a background direction, pmf times the background's own density, as the format carries it.
+template <class T>
+PT_HD inline T background_light_density(T pmf, T background_pdf) {
+  if constexpr (kReciprocalLightDensity<T>) {
+    using S = ScalarTraits<T>;
+    return S::exact_quotient(S::exact(T(1)) * S::exact(T(1)), S::exact(pmf) * S::exact(background_pdf));
+  } else {
+    return pmf * background_pdf;
   }
 }
 
@@ -172,9 +234,10 @@ PT_HD inline T turn_angle(const Turn<T>& t) {
 // digits, and for a far light the two densities are the same anyway); the margin in rounding units keeps the
 // cancellation small for fixed-point formats, whose angles carry an absolute error of a few steps. Above the
 // largest, the point nearly touches the light's plane, where the parametrization divides by almost zero.
+// (1024 units as two factors of 32: Q8.24 and Q10.22 cannot hold 1024, which saturated on every light sample.)
 template <class T>
 PT_HD inline T smallest_sampled_solid_angle() {
-  return constant<T>(3e-4) + constant<T>(1024) * ScalarTraits<T>::rounding_unit();
+  return constant<T>(3e-4) + ScalarTraits<T>::rounding_unit() * constant<T>(32) * constant<T>(32);
 }
 
 // Quad q's frame (RectangleFrame), or one with lu = 0 where q is a parallelogram that is not a rectangle.
@@ -298,10 +361,10 @@ PT_HD inline bool sphere_at(const Primitive<T>& primitive, T time, Vec3<T>& cent
 }
 
 // The density per unit solid angle of directions drawn uniformly over a cone of width 1 - cos theta_max, for a
-// light picked with probability pmf.
+// light picked with probability pmf, as the format carries it.
 template <class T>
 PT_HD inline T cone_density(T pmf, T width) {
-  return pmf / (constant<T>(2) * pi<T>() * width);
+  return light_density(pmf, constant<T>(2) * pi<T>() * width);
 }
 
 // A direction from `from` towards a point of the chosen light (pass its entry), or false where none can be had.
@@ -321,7 +384,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
     const BackgroundSample<T> sample = background_sample(scene.background, u1, u2);
     out.direction = sample.direction;
     out.distance = largest<T>();
-    out.pdf = light.pmf * sample.pdf;
+    out.pdf = background_light_density(light.pmf, sample.pdf);
     out.brightest = max_component(sample.radiance);
     return true;
   }
@@ -369,7 +432,7 @@ PT_HD inline bool sample_light(const SceneView<T>& scene, u32 entry, const Vec3<
     SphericalRectangle<T> rectangle;
     if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) {
       sample_spherical_rectangle(rectangle, u1, u2, out.direction, out.distance);
-      out.pdf = light.pmf / rectangle.solid_angle;
+      out.pdf = light_density(light.pmf, rectangle.solid_angle);
       return true;
     }
     Vec3<T> eu, ev;
@@ -425,7 +488,7 @@ PT_HD inline T light_reach(const SceneView<T>& scene, u32 entry, const Vec3<T>& 
 }
 
 // The density per unit solid angle with which sample_light, from the ray's origin, gives the ray's (unit) direction,
-// where the ray meets the light of `entry` at `hit`, described by `at`.
+// where the ray meets the light of `entry` at `hit`, described by `at`; as the format carries it (light_density).
 template <class T>
 PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray, const Hit<T>& hit, const SurfacePoint<T>& at) {
   const LightEntry<T>& light = scene.lights.entries[entry];
@@ -440,7 +503,8 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   [[maybe_unused]] auto per_area2 = [&](T a1, T a2) {
     if constexpr (ScalarTraits<T>::kExactProducts) {
       using S = ScalarTraits<T>;
-      return S::exact_quotient(S::exact(light.pmf) * S::exact(t) * S::exact(t), S::exact(cosine) * S::exact(a1) * S::exact(a2));
+      const auto numerator = S::exact(light.pmf) * S::exact(t) * S::exact(t), denominator = S::exact(cosine) * S::exact(a1) * S::exact(a2);
+      return kReciprocalLightDensity<T> ? S::exact_quotient(denominator, numerator) : S::exact_quotient(numerator, denominator);
     } else {
       return light.pmf * (t * t) / (cosine * (a1 * a2));
     }
@@ -471,7 +535,7 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   if (sphere_at(primitive, ray.time, center, radius)) return sphere(center, radius);
   if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
     SphericalRectangle<T> rectangle;
-    if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) return light.pmf / rectangle.solid_angle;
+    if (spherical_rectangle(scene.lights.rectangles[entry], q->corner, from, rectangle)) return light_density(light.pmf, rectangle.solid_angle);
     // |u x v| = u_extent (v_extent / normal.(du x dv)) (quad_area).
     if constexpr (ScalarTraits<T>::kExactProducts)
       return per_area2(q->u_extent, abs(q->v_extent / dot(q->normal, cross(q->du, q->dv))));
@@ -485,7 +549,11 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
     const T share = scene.lights.triangle_cdf[start + 1] - scene.lights.triangle_cdf[start];
     Vec3<T> p[3];
     world_triangle(scene.meshes, *instance, hit.triangle, p);
-    return share * per_area(triangle_area(p[1] - p[0], p[2] - p[0]));
+    const T per_area_of_mesh = per_area(triangle_area(p[1] - p[0], p[2] - p[0]));
+    if constexpr (kReciprocalLightDensity<T>)
+      return ScalarTraits<T>::exact_quotient(ScalarTraits<T>::exact(per_area_of_mesh), ScalarTraits<T>::exact(share));
+    else
+      return share * per_area_of_mesh;
   }
   return T(0);
 }

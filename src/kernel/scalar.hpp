@@ -75,6 +75,7 @@ struct ScalarTraits<float> {
   // Floating point rounds every product (kernel/shapes.hpp has the formulations of fixed point, which keeps them
   // exact), and stores a quad's dual edges as they are (an extent of 1, see Quad).
   static constexpr bool kExactProducts = false;
+  static constexpr bool kReciprocalLightDensity = false;  // light densities as they are (kernel/lights.hpp)
   static double quad_extent(double) { return 1; }
   // (index + offset) / count: where a sample lies across the image, for pixel `index` of `count`.
   PT_HD static float index_fraction(u32 index, float offset, u32 count) { return (static_cast<float>(index) + offset) / static_cast<float>(count); }
@@ -115,6 +116,7 @@ struct ScalarTraits<double> {
   PT_HD static double slab_origin_term(double origin, double reciprocal) { return origin * reciprocal; }
   PT_HD static double slab_distance(double bound, double reciprocal, double origin_term) { return bound * reciprocal - origin_term; }
   static constexpr bool kExactProducts = false;
+  static constexpr bool kReciprocalLightDensity = false;
   static double quad_extent(double) { return 1; }
   PT_HD static double index_fraction(u32 index, double offset, u32 count) {
     return (static_cast<double>(index) + offset) / static_cast<double>(count);
