@@ -42,6 +42,8 @@ def read_costs(path: Path) -> dict:
         for r in csv.DictReader(f):
             if not r.get("status", "").startswith("ok"):  # "ok, iCE40 without ice40_dsp": the 7-series figures stand
                 continue
+            if r["unit"] not in UNITS:  # the traversal engine's other units (set-up, instances, media) are not counted
+                continue
             entry = per_format.setdefault(r["format"], {"units": set(), "luts": 0, "ffs": 0, "dsp": 0, "bits": int(r["bits"])})
             entry["units"].add(r["unit"])
             entry["luts"] += int(r["xc7_luts"]) + int(r["xc7_srls"] or 0)
