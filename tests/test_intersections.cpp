@@ -486,6 +486,8 @@ TEST(SphereIntersectionInFixedPoint, LargeSphereIsHitPreciselyWithoutScalingInQ1
     const Ray<Q16> ray = make_ray<Q16>({13, 3, 3}, target - Vec3d{13, 3, 3});
     Hit<Q16> hit;
     ASSERT_TRUE(intersect_sphere(to<Q16>(center), Q16(radius), ray, Q16(0), largest<Q16>(), hit));
+    Hit<double> reference;
+    ASSERT_TRUE(intersect_sphere(center, radius, as_double(ray), 0.0, 1e30, reference));
     // The rounded ray's line (its direction unit only to a step or so) meets the ground here; the test's crossing
     // is one quotient of exact values (the next test bounds it by a step).
     EXPECT_NEAR(static_cast<double>(hit.t), static_cast<double>(line_crossings(to<Q16>(center), Q16(radius), ray).first), 1e-3);

@@ -31,15 +31,29 @@ struct LightSample {
 template <class T>
 inline constexpr bool kReciprocalLightDensity = ScalarTraits<T>::kReciprocalLightDensity;
 
+// The light density numerator / denominator, given as exact values with the same fraction bits (fixed point with
+// exact products), as the format carries it: one quotient either way.
+template <class T, class Exact>
+PT_HD inline T exact_light_density(Exact numerator, Exact denominator) {
+  using S = ScalarTraits<T>;
+  return kReciprocalLightDensity<T> ? S::exact_quotient(denominator, numerator) : S::exact_quotient(numerator, denominator);
+}
+
 // The light density numerator / denominator as the format carries it.
 template <class T>
 PT_HD inline T light_density(T numerator, T denominator) {
-  if constexpr (kReciprocalLightDensity<T>) {
-    using S = ScalarTraits<T>;
-    return S::exact_quotient(S::exact(denominator), S::exact(numerator));
-  } else {
+  if constexpr (kReciprocalLightDensity<T>)
+    return exact_light_density<T>(ScalarTraits<T>::exact(numerator), ScalarTraits<T>::exact(denominator));
+  else
     return numerator / denominator;
-  }
+}
+
+// The scattering density times a light's reciprocal density, s r, rounded once: the ratio of the two strategies'
+// densities, from which both power-heuristic weights follow where the format carries reciprocals.
+template <class T>
+PT_HD inline T scatter_to_light_ratio(T scatter_pdf, T reciprocal_light) {
+  using S = ScalarTraits<T>;
+  return S::round_exact(S::exact(scatter_pdf) * S::exact(reciprocal_light));
 }
 
 // The power heuristic (exponent 2) for one sample of each strategy: the weight of the strategy with density `pdf`
@@ -78,7 +92,7 @@ PT_HD inline T scattered_light_weight(T scatter_pdf, T light) {
     // within 2^-2(I-1)), then one quotient of exact squares.
     if (!(light > T(0))) return T(1);
     using S = ScalarTraits<T>;
-    const T ratio = S::round_exact(S::exact(scatter_pdf) * S::exact(light));
+    const T ratio = scatter_to_light_ratio(scatter_pdf, light);
     return S::exact_quotient(S::exact(ratio) * S::exact(ratio), S::exact(ratio) * S::exact(ratio) + S::exact(T(1)) * S::exact(T(1)));
   } else {
     return mis_weight(scatter_pdf, light);
@@ -92,7 +106,7 @@ PT_HD inline T light_sample_weight(T light, T scatter_pdf) {
   if constexpr (kReciprocalLightDensity<T>) {
     // r / (1 + (s r)^2) for the reciprocal r: s r rounded once, then one quotient.
     using S = ScalarTraits<T>;
-    const T ratio = S::round_exact(S::exact(scatter_pdf) * S::exact(light));
+    const T ratio = scatter_to_light_ratio(scatter_pdf, light);
     return S::exact_quotient(S::exact(light) * S::exact(T(1)), S::exact(T(1)) * S::exact(T(1)) + S::exact(ratio) * S::exact(ratio));
   } else {
     return mis_weight_over_pdf(light, scatter_pdf);
@@ -104,7 +118,7 @@ template <class T>
 PT_HD inline T background_light_density(T pmf, T background_pdf) {
   if constexpr (kReciprocalLightDensity<T>) {
     using S = ScalarTraits<T>;
-    return S::exact_quotient(S::exact(T(1)) * S::exact(T(1)), S::exact(pmf) * S::exact(background_pdf));
+    return exact_light_density<T>(S::exact(pmf) * S::exact(background_pdf), S::exact(T(1)) * S::exact(T(1)));
   } else {
     return pmf * background_pdf;
   }
@@ -503,8 +517,7 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
   [[maybe_unused]] auto per_area2 = [&](T a1, T a2) {
     if constexpr (ScalarTraits<T>::kExactProducts) {
       using S = ScalarTraits<T>;
-      const auto numerator = S::exact(light.pmf) * S::exact(t) * S::exact(t), denominator = S::exact(cosine) * S::exact(a1) * S::exact(a2);
-      return kReciprocalLightDensity<T> ? S::exact_quotient(denominator, numerator) : S::exact_quotient(numerator, denominator);
+      return exact_light_density<T>(S::exact(light.pmf) * S::exact(t) * S::exact(t), S::exact(cosine) * S::exact(a1) * S::exact(a2));
     } else {
       return light.pmf * (t * t) / (cosine * (a1 * a2));
     }
@@ -550,6 +563,7 @@ PT_HD inline T light_pdf(const SceneView<T>& scene, u32 entry, const Ray<T>& ray
     Vec3<T> p[3];
     world_triangle(scene.meshes, *instance, hit.triangle, p);
     const T per_area_of_mesh = per_area(triangle_area(p[1] - p[0], p[2] - p[0]));
+    // The triangle's share of the mesh's probability: a reciprocal is divided by it.
     if constexpr (kReciprocalLightDensity<T>)
       return ScalarTraits<T>::exact_quotient(ScalarTraits<T>::exact(per_area_of_mesh), ScalarTraits<T>::exact(share));
     else
