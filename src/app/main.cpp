@@ -83,6 +83,7 @@ struct RenderOptions {
 Integrator integrator_of(const RenderOptions& options) {
   if (options.integrator == "wavefront") return Integrator::kWavefront;
   if (options.integrator == "megakernel") return Integrator::kMegakernel;
+  if (options.integrator == "bdpt") return Integrator::kBidirectional;
   return Integrator::kAuto;
 }
 
@@ -619,8 +620,9 @@ int main(int argc, char** argv) {
         ->check(CLI::NonNegativeNumber);
     command
         ->add_option("--integrator", options.integrator,
-                     "megakernel (each path in one go), wavefront (stages over queues), or auto (each backend's faster one)")
-        ->check(CLI::IsMember({"auto", "megakernel", "wavefront"}))
+                     "megakernel (each path in one go), wavefront (stages over queues), auto (each backend's faster one), or bdpt "
+                     "(bidirectional path tracing: light and camera subpaths joined, for caustics; docs/light-transport.md)")
+        ->check(CLI::IsMember({"auto", "megakernel", "wavefront", "bdpt"}))
         ->capture_default_str();
     command
         ->add_option("--light-sampling", options.light_sampling,

@@ -14,6 +14,7 @@
 #if defined(PT_CUDA_COMPRESSED_BVH)
 #include "flat/compressed_bvh_builder.hpp"
 #endif
+#include "integrators/bidirectional.hpp"
 #include "integrators/device.hpp"
 #include "integrators/megakernel.hpp"
 #include "integrators/wavefront.hpp"
@@ -29,12 +30,13 @@ class DeviceBackend final : public RenderBackend<T> {
         integrator_(integrator != Integrator::kAuto ? integrator : device_.preferred_integrator()) {}
 
   std::string name() const override {
-    return device_.kind() + " (" + device_.description() + ", " + (integrator_ == Integrator::kWavefront ? "wavefront" : "megakernel") + ")";
+    return device_.kind() + " (" + device_.description() + ", " + integrator_name(integrator_) + ")";
   }
 
   void upload(const FlatScene<T>& scene) override {
     wavefront_.reset();
     megakernel_.reset();
+    bidirectional_.reset();
     memory_.release_all();
     // Where the device's memory is the host's (the CPU), the kernels read the scene's arrays where they are: a copy
     // would hold the scene twice (for a large mesh, about 90 bytes a triangle more at the peak).
@@ -60,16 +62,24 @@ class DeviceBackend final : public RenderBackend<T> {
     film_pixels_ = pixels;
     judgement_ = nullptr;  // released with the previous upload's memory
     device_.clear(film_, pixels * sizeof(FilmPixel), "clearing the film");
-    if (integrator_ == Integrator::kWavefront)
+    if (integrator_ == Integrator::kWavefront) {
       wavefront_ = std::make_unique<WavefrontIntegrator<D, T>>(device_, view_, film_);
-    else
+    } else if (integrator_ == Integrator::kBidirectional) {
+      // Light subpaths carry the light's power over its area, beyond the fixed-point formats' range.
+      if constexpr (std::is_floating_point_v<T>)
+        bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(device_, view_, film_);
+      else
+        throw BackendError("bdpt renders in float or double (--number-format)");
+    } else
       megakernel_ = std::make_unique<MegakernelIntegrator<D, T>>(device_, view_, film_);
     device_.synchronise("copying the scene");
     saturations_before_ = device_.saturations();
   }
 
   void render(u32 first_sample, u32 sample_count) override {
-    if (wavefront_)
+    if (bidirectional_)
+      bidirectional_->render(first_sample, sample_count);
+    else if (wavefront_)
       wavefront_->render(first_sample, sample_count);
     else
       megakernel_->render(first_sample, sample_count);
@@ -79,6 +89,8 @@ class DeviceBackend final : public RenderBackend<T> {
     const u32 width = view_.params.width;
     if (row_count == 0 || first_row + row_count > view_.params.height || band.size() != static_cast<std::size_t>(width) * row_count)
       throw BackendError("a band of rows outside the image");
+    // Light tracing's splats land anywhere in the image, outside a band's rows.
+    if (bidirectional_) throw BackendError("bdpt renders a whole image on one device: not in bands over several devices or processes");
     // Host memory: the kernels add to the caller's band where it is. Elsewhere the band goes through the device's
     // film, at its place in the image.
     if (device_.memory_on_host()) {
@@ -126,6 +138,8 @@ class DeviceBackend final : public RenderBackend<T> {
   // On the device: two launches over the pixels and a counter read back, where a copy of the film to the host and
   // back took longer than the samples between two judgements on a GPU.
   std::size_t stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) override {
+    // A stopped pixel would still take other pixels' splats but no samples of its own.
+    if (bidirectional_) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
     if (static_cast<std::size_t>(width) * height != film_pixels_) throw BackendError("a film of another size cannot be judged");
     if (!judgement_) judgement_ = static_cast<u32*>(memory_.allocate((film_pixels_ + 1) * sizeof(u32), "allocating adaptive sampling's judgement"));
     u32* taking = judgement_ + film_pixels_;
@@ -146,7 +160,7 @@ class DeviceBackend final : public RenderBackend<T> {
 
   std::optional<double> device_seconds() const override {
     if (!device_.times_on_device()) return std::nullopt;
-    return wavefront_ ? wavefront_->seconds() : megakernel_ ? megakernel_->seconds() : 0.0;
+    return wavefront_ ? wavefront_->seconds() : megakernel_ ? megakernel_->seconds() : bidirectional_ ? bidirectional_->seconds() : 0.0;
   }
 
   std::vector<std::pair<std::string, double>> stage_seconds() const override {
@@ -177,6 +191,7 @@ class DeviceBackend final : public RenderBackend<T> {
   u32* judgement_ = nullptr;  // adaptive sampling: a stop per pixel, then the count of pixels taking samples
   u64 saturations_before_ = 0;  // counted before the last upload
   std::unique_ptr<MegakernelIntegrator<D, T>> megakernel_;
+  std::unique_ptr<BidirectionalIntegrator<D, T>> bidirectional_;
   std::unique_ptr<WavefrontIntegrator<D, T>> wavefront_;  // last: freed before the scene and film it points into
 };
 

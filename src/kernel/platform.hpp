@@ -48,6 +48,18 @@ PT_HD inline u32 atomic_fetch_add(u32* counter, u32 value) {
 #endif
 }
 
+// Adds to a 64-bit sum shared by the threads of one stage (light tracing's splats, kernel/bidirectional.hpp). Relaxed,
+// as above; integer sums do not depend on the order of the additions.
+PT_HD inline void atomic_fetch_add_u64(u64* sum, u64 value) {
+#if defined(__CUDA_ARCH__)
+  atomicAdd(reinterpret_cast<unsigned long long*>(sum), static_cast<unsigned long long>(value));
+#elif defined(PT_SYCL_KERNELS)
+  sycl::atomic_ref<u64, sycl::memory_order::relaxed, sycl::memory_scope::device>(*sum).fetch_add(value);
+#else
+  __atomic_fetch_add(sum, value, __ATOMIC_RELAXED);
+#endif
+}
+
 // Index of the lowest set bit of a non-zero mask.
 PT_HD inline u32 lowest_set_bit(u32 mask) {
 #if defined(__CUDA_ARCH__)

@@ -96,7 +96,8 @@ Integrator integrator_named(const std::string& name) {
   if (name == "wavefront") return Integrator::kWavefront;
   if (name == "megakernel") return Integrator::kMegakernel;
   if (name == "auto") return Integrator::kAuto;
-  throw InputError(fmt::format("integrator='{}': not one of auto, megakernel, wavefront", name));
+  if (name == "bdpt") return Integrator::kBidirectional;
+  throw InputError(fmt::format("integrator='{}': not one of auto, megakernel, wavefront, bdpt", name));
 }
 
 template <class T>

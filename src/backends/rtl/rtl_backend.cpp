@@ -45,7 +45,7 @@ std::unique_ptr<RenderBackend<T>> make_rtl_backend(unsigned threads, Integrator 
     throw BackendError(fmt::format("the rtl backend's traversal engine computes in fixed point, and is built for {} (--number-format); not for {}",
                                    rtl_formats(), number_format_name<T>()));
   } else {
-    if (integrator == Integrator::kMegakernel)
+    if (integrator != Integrator::kWavefront)
       throw BackendError("the rtl backend runs the wavefront integrator only (its engine is the intersect stage): --integrator wavefront or auto");
     return std::make_unique<DeviceBackend<RtlDevice<T, Model>, T>>(Integrator::kWavefront, threads);
   }

@@ -1,0 +1,557 @@
+// Bidirectional path tracing (Veach 1997): one camera sample of a pixel joined with one light subpath at every pair of
+// vertices, the strategies combined by the power heuristic. The weights are formed as the subpaths grow (the recursive
+// form of Georgiev et al., "Light Transport Simulation with Vertex Connection and Merging", 2012, and its technical
+// report), so that only the light subpath's vertices are stored and the camera subpath needs a few numbers a vertex.
+// Paths whose light is the background are found by the camera subpath only (escaping, or a shadow ray towards it),
+// weighted as the path tracer weighs them. docs/light-transport.md derives the estimator and states its limits.
+#pragma once
+
+#include <type_traits>
+
+#include "kernel/integrator.hpp"
+
+namespace pt {
+
+// Light subpaths draw their random numbers at bounces from here on, apart from the camera subpath's.
+inline constexpr u32 kLightPathBounce = 1u << 16;
+
+// Light subpath vertices a sample keeps: one a bounce but the last (a path of at most kMaxBidirectionalDepth segments
+// joins a light vertex to a camera vertex that is not the camera). Renders take at most this depth (the host checks).
+inline constexpr u32 kMaxBidirectionalDepth = 50;
+inline constexpr u32 kMaxLightVertices = kMaxBidirectionalDepth - 2;
+
+// Random dimensions of a light subpath's start (at bounce kLightPathBounce; the point on the light takes
+// kDimLightPoint and kDimLightTriangle, as light sampling does) and of a lens point for light tracing.
+enum BidirectionalDimension : u32 {
+  kDimEmissionDirection = 30,  // pair: the direction about the light's normal
+  kDimEmissionSide = 32,       // which side of a two-sided light
+};
+
+// The power heuristic's exponent applied to a ratio of densities.
+template <class T>
+PT_HD inline T mis_power(T x) {
+  return x * x;
+}
+
+// A light subpath vertex where a connection can be made (a material light sampling serves: diffuse, glossy, a medium).
+// `throughput` is the light's emission times the subpath's scattering over its densities, up to the vertex (the cosine
+// at the vertex towards the previous one left out, as the path tracer's throughput leaves it out);
+// `reverse_mis` and `connect_mis` are the running quantities of the weights (d_VCM and d_VC of the report).
+template <class T>
+struct LightVertex {
+  SurfacePoint<T> at;
+  Color<T> throughput;
+  Vec3<T> toward_light;  // unit, back along the subpath
+  T reverse_mis, connect_mis;
+  u32 primitive, triangle;
+  u32 segments;  // of the light subpath up to here
+  bool in_medium;
+};
+
+// |cos| of a direction with a vertex's surface, 1 in a medium (no surface: densities per volume need no cosine).
+template <class T>
+PT_HD inline T vertex_cosine(const SurfacePoint<T>& at, bool in_medium, const Vec3<T>& direction) {
+  return in_medium ? T(1) : abs(dot(at.geometric_normal, direction));
+}
+
+// Whether a hit is a scattering point inside a medium rather than on a surface.
+template <class T>
+PT_HD inline bool hit_in_medium(const SceneView<T>& scene, const Hit<T>& hit) {
+  return std::holds_alternative<ConstantMedium<T>>(scene.primitives[hit.primitive].shape);
+}
+
+// ---- The camera seen from the scene ----
+// Where a direction from a point of the lens crosses the image, and the density per unit solid angle with which
+// camera rays of the whole image take it: the image is sampled uniformly on the focus plane (area A at distance D along
+// the axis), so the density is D^2 / (cos^3 A) with cos the angle to the axis. Light tracing weighs its splats by it
+// (the pixel sums are divided by samples per pixel, and there are as many light subpaths as camera samples).
+template <class T>
+struct CameraImportance {
+  T density;  // 0: the direction misses the image
+  u32 x, y;
+};
+
+template <class T>
+PT_HD inline CameraImportance<T> camera_importance(const Camera<T>& camera, u32 width, u32 height, const Vec3<T>& lens_point,
+                                                   const Vec3<T>& direction) {
+  CameraImportance<T> out{T(0), 0, 0};
+  const Vec3<T> axis = camera.lower_left + constant<T>(0.5) * camera.horizontal + constant<T>(0.5) * camera.vertical - camera.origin;
+  const T focus = length(axis);
+  const T cosine = dot(direction, axis) / focus;
+  if (!(cosine > T(0))) return out;
+  const Vec3<T> on_plane = lens_point + direction * (focus / cosine) - camera.lower_left;
+  const T s = dot(on_plane, camera.horizontal) / length_squared(camera.horizontal);
+  const T t = dot(on_plane, camera.vertical) / length_squared(camera.vertical);
+  if (!(s >= T(0) && s < T(1) && t > T(0) && t <= T(1))) return out;
+  const u32 column = static_cast<u32>(s * static_cast<T>(width)), row = static_cast<u32>((T(1) - t) * static_cast<T>(height));
+  out.x = column < width ? column : width - 1;
+  out.y = row < height ? row : height - 1;
+  const T area = length(cross(camera.horizontal, camera.vertical));
+  out.density = focus * focus / (cosine * cosine * cosine * area);
+  return out;
+}
+
+// ---- Lights as the start of a subpath ----
+// The density with which a light subpath starts at point `at` of the light of `entry` (per unit area, the light's
+// choice included): uniform over the light's area, and for a mesh over its triangles by power.
+template <class T>
+PT_HD inline T emission_area_density(const SceneView<T>& scene, u32 entry, const Hit<T>& hit, T time) {
+  const LightEntry<T>& light = scene.lights.entries[entry];
+  const Primitive<T>& primitive = scene.primitives[light.primitive];
+  Vec3<T> center;
+  T radius;
+  if (sphere_at(primitive, time, center, radius)) return light.pmf / (constant<T>(4) * pi<T>() * radius * radius);
+  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) return light.pmf / quad_area(*q);
+  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return light.pmf / triangle_area(tri->edge1, tri->edge2);
+  if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
+    const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];
+    const u32 start = light.first_cdf + (hit.triangle - mesh.first_triangle);
+    const T share = scene.lights.triangle_cdf[start + 1] - scene.lights.triangle_cdf[start];
+    Vec3<T> p[3];
+    world_triangle(scene.meshes, *instance, hit.triangle, p);
+    return light.pmf * share / triangle_area(p[1] - p[0], p[2] - p[0]);
+  }
+  return T(0);
+}
+
+// The density of a light subpath's first direction: cosine-weighted about the normal, on either side of the light
+// with probability 1/2 (an emitting surface shines from both sides), per unit solid angle.
+template <class T>
+PT_HD inline T emission_direction_density(T cosine) {
+  return cosine / (constant<T>(2) * pi<T>());
+}
+
+// A light subpath's start: a point on a light (chosen by power, then uniformly by area), described as a hit seen from
+// the direction it sends light in, and that direction. Throughput = emitted radiance x cos / (area density x direction
+// density). False where the light picked is the background (its subpaths are not traced) or nothing can leave.
+template <class T>
+struct EmissionSample {
+  SurfacePoint<T> at;
+  Hit<T> hit;
+  Vec3<T> direction;
+  Color<T> throughput;
+  T area_density, direction_density, cosine;
+  u32 entry;
+};
+
+template <class T>
+PT_HD inline bool sample_emission(const SceneView<T>& scene, const BounceRandom& random, T time, EmissionSample<T>& out) {
+  if (scene.lights.count == 0) return false;
+  const u32 entry = choose_light(scene.lights, random);
+  const LightEntry<T>& light = scene.lights.entries[entry];
+  if (light.primitive == kNoLight) return false;
+  out.entry = entry;
+  const Primitive<T>& primitive = scene.primitives[light.primitive];
+  T u1, u2;
+  random.uniform_pair(kDimLightPoint, u1, u2);
+  Hit<T> hit{T(1), T(0), T(0), light.primitive, 0};
+  Vec3<T> point, outward;
+  Vec3<T> center;
+  T radius;
+  if (sphere_at(primitive, time, center, radius)) {
+    outward = uniform_unit_vector(u1, u2);
+    point = center + radius * outward;
+  } else if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
+    Vec3<T> eu, ev;
+    quad_edges(*q, eu, ev);
+    point = q->corner + u1 * eu + u2 * ev;
+    outward = q->normal;
+    hit.b1 = u1;
+    hit.b2 = u2;
+  } else if (const auto* t = std::get_if<Triangle<T>>(&primitive.shape)) {
+    const T root = sqrt(u1);
+    hit.b1 = root * (T(1) - u2);
+    hit.b2 = root * u2;
+    point = t->p0 + hit.b1 * t->edge1 + hit.b2 * t->edge2;
+    outward = normalize(cross(t->edge1, t->edge2));
+  } else if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
+    const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];
+    hit.triangle = choose_mesh_triangle(scene.lights, mesh, light.first_cdf, random.template uniform<T>(kDimLightTriangle));
+    Vec3<T> p[3];
+    world_triangle(scene.meshes, *instance, hit.triangle, p);
+    const T root = sqrt(u1);
+    hit.b1 = root * (T(1) - u2);
+    hit.b2 = root * u2;
+    point = p[0] + hit.b1 * (p[1] - p[0]) + hit.b2 * (p[2] - p[0]);
+    outward = normalize(cross(p[1] - p[0], p[2] - p[0]));
+  } else {
+    return false;
+  }
+  // The direction: cosine-weighted about the normal, on the side a third number picks.
+  T d1, d2;
+  random.uniform_pair(kDimEmissionDirection, d1, d2);
+  const Vec3<T> disk = uniform_in_unit_disk(d1, d2);
+  const T up = sqrt(max(T(0), T(1) - disk.x * disk.x - disk.y * disk.y));
+  const Vec3<T> side = random.template uniform<T>(kDimEmissionSide) < constant<T>(0.5) ? outward : -outward;
+  out.direction = normalize(frame_from_normal(side).to_world(Vec3<T>{disk.x, disk.y, up}));
+  // Described as seen along the direction back onto the point, so that the normal faces the side light leaves from.
+  const Ray<T> seen{point + out.direction, -out.direction, time};
+  out.hit = hit;
+  out.at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, seen, hit, material_needs_uv(scene.materials[material_of_hit(primitive, scene.meshes, hit)], scene.textures));
+  out.cosine = abs(dot(out.at.geometric_normal, out.direction));
+  out.area_density = emission_area_density(scene, entry, hit, time);
+  out.direction_density = emission_direction_density(out.cosine);
+  if (!(out.area_density > T(0) && out.direction_density > T(0))) return false;
+  const Color<T> emitted = material_emitted(scene.materials[out.at.material], out.at, scene.textures, scene.texture_data);
+  out.throughput = emitted * (out.cosine / (out.area_density * out.direction_density));
+  return max_component(out.throughput) > T(0);
+}
+
+// ---- Visibility between two vertices ----
+// Whether the segment from `from` (a vertex, spawned towards `to`) to the point `to` is free, and the transmittance of
+// the media it crosses. `target` names the surface `to` lies on (its primitive and triangle), or kNoLight for a point
+// in a medium or off the scene (the lens): then any hit before it blocks. A surface is reached where the first hit is
+// on it, within a 512th of the way of the point (a nearer hit on the same shape, its near side, blocks).
+template <class T>
+PT_HD inline bool segment_transmittance(const SceneView<T>& scene, const SurfacePoint<T>& from, const Vec3<T>& to, u32 target, u32 target_triangle, T time,
+                                        const SampleRandom& random, u32 bounce, T& transmitted) {
+  const Vec3<T> offset = to - from.p;
+  const T distance = length(offset);
+  if (!(distance > T(0))) return false;
+  const Ray<T> ray = spawn_ray(from, offset / distance, time);
+  T optical_depth = T(0);
+  Hit<T> hit{};
+  const IntersectContext<T> context{scene.boundaries, &random, bounce, &optical_depth};
+  if (target == kNoLight) {
+    if (closest_hit(scene, ray, context, hit, distance)) return false;
+  } else if (closest_hit(scene, ray, context, hit, distance + distance * constant<T>(1.0 / 1024))) {
+    if (hit.primitive != target || hit.triangle != target_triangle || hit.t < distance - distance * constant<T>(1.0 / 512)) return false;
+  }
+  transmitted = transmittance(optical_depth);
+  return true;
+}
+
+// ---- The light subpath ----
+// Traces the light subpath of one sample: its vertices where connections can be made are kept in `vertices` (their
+// count returned), and each is joined to the camera (light tracing, t = 1), its contribution handed to `splat(x, y,
+// radiance)` for the pixel it lands in. `time` is the camera sample's.
+template <class T, class Splat>
+PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRandom& random, T time, LightVertex<T>* vertices, u32& rays, const Splat& splat) {
+  const RenderParams<T>& params = scene.params;
+  EmissionSample<T> start;
+  if (params.max_depth < 2 || !sample_emission(scene, BounceRandom{&random, kLightPathBounce}, time, start)) return 0;
+  Color<T> throughput = start.throughput;
+  const T start_brightest = max_component(throughput);
+  const T emission_density = start.area_density * start.direction_density;
+  T connect_mis = mis_power(start.cosine / emission_density);
+  T reverse_mis = T(0);
+  Ray<T> ray = spawn_ray(start.at, start.direction, time);
+  u32 count = 0;
+  for (u32 segments = 1; segments < params.max_depth; ++segments) {
+    Hit<T> hit{};
+    ++rays;
+    if (!closest_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, kLightPathBounce + segments}, hit)) break;
+    const Primitive<T>& primitive = scene.primitives[hit.primitive];
+    const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
+    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, ray, hit, material_needs_uv(material, scene.textures),
+                                            material_needs_tangent(material));
+    const bool in_medium = hit_in_medium(scene, hit);
+    const Vec3<T> toward_light = -ray.direction;
+    const T cosine = vertex_cosine(at, in_medium, toward_light);
+    if (segments == 1) {
+      // The weight of light sampling from here (s = 1) needs its density towards the point the subpath started from,
+      // known only now: its density per solid angle there times cos at the light, over the emission density times
+      // cos here (the distance squared cancels).
+      const T direct = light_pdf(scene, start.entry, Ray<T>{at.p, -ray.direction, time}, Hit<T>{hit.t, T(0), T(0), start.hit.primitive, start.hit.triangle},
+                                 start.at);
+      reverse_mis = mis_power(direct * start.cosine / (emission_density * cosine));
+    } else {
+      reverse_mis *= mis_power(hit.t * hit.t / cosine);
+    }
+    connect_mis /= mis_power(cosine);
+    if (!material_samples_lights(material)) {
+      // Mirrors, glass and fuzzy metal: no connection here; the strategies ending here have no density.
+      Scatter<T> scatter;
+      if (segments + 2 > params.max_depth) break;
+      if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, BounceRandom{&random, kLightPathBounce + segments}, scatter)) break;
+      const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
+      // The adjoint's correction for shading normals: light paths weigh by the shading cosine towards the light side.
+      const T shading_in = abs(dot(at.normal, toward_light)), shading_out = abs(dot(at.normal, scatter.ray.direction));
+      if (!(shading_out > T(0) && cosine > T(0))) break;
+      throughput *= scatter.attenuation * (shading_in * out_cosine / (shading_out * cosine));
+      reverse_mis = T(0);
+      connect_mis *= mis_power(out_cosine);
+      ray = scatter.ray;
+    } else {
+      // Light tracing: the vertex seen through a point of the lens.
+      {
+        const BounceRandom lens_random{&random, kLightPathBounce + segments};
+        T lens_u, lens_v;
+        lens_random.uniform_pair(kDimLens, lens_u, lens_v);
+        const Vec3<T> disk = uniform_in_unit_disk(lens_u, lens_v);
+        const Vec3<T> lens = scene.camera.origin + disk.x * scene.camera.lens_u + disk.y * scene.camera.lens_v;
+        const Vec3<T> to_lens = lens - at.p;
+        const T distance2 = length_squared(to_lens);
+        const T distance = sqrt(distance2);
+        const Vec3<T> toward_camera = to_lens / distance;
+        const CameraImportance<T> seen = camera_importance(scene.camera, params.width, params.height, lens, -toward_camera);
+        T transmitted;
+        if (seen.density > T(0)) {
+          const ScatterValue<T> value = material_evaluate(material, at, toward_camera, toward_light, scene.textures, scene.texture_data);
+          const T camera_cosine = vertex_cosine(at, in_medium, toward_camera);
+          if (max_component(value.value) > T(0) && camera_cosine > T(0)) {
+            ++rays;
+            if (segment_transmittance(scene, at, lens, kNoLight, 0, time, random, kLightPathBounce + segments, transmitted)) {
+              const T camera_density = seen.density * camera_cosine / distance2;  // per unit area here
+              const T weight = T(1) / (mis_power(camera_density) * (reverse_mis + connect_mis * mis_power(value.pdf)) + T(1));
+              splat(seen.x, seen.y, throughput * value.value * (weight * camera_density * transmitted / cosine));
+            }
+          }
+        }
+      }
+      // Kept where a camera vertex other than the camera can still join it.
+      if (segments + 2 > params.max_depth) break;
+      vertices[count++] = LightVertex<T>{at, throughput, toward_light, reverse_mis, connect_mis, hit.primitive, hit.triangle, segments, in_medium};
+      Scatter<T> scatter;
+      if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, BounceRandom{&random, kLightPathBounce + segments}, scatter)) break;
+      if (!(scatter.pdf > T(0))) break;
+      const Vec3<T> out = scatter.ray.direction;
+      // The scattering of light arriving from the light side towards `out`, and the density of the reverse direction.
+      const ScatterValue<T> value = material_evaluate(material, at, out, toward_light, scene.textures, scene.texture_data);
+      const T out_cosine = vertex_cosine(at, in_medium, out);
+      if (!(cosine > T(0))) break;
+      throughput *= value.value * (out_cosine / (cosine * scatter.pdf));
+      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(value.pdf) + reverse_mis);
+      reverse_mis = mis_power(T(1) / scatter.pdf);
+      ray = scatter.ray;
+    }
+    if (params.roulette_depth > 0 && segments >= params.roulette_depth) {
+      // As the path tracer's roulette, on the throughput relative to the subpath's start.
+      const T q = min(max_component(throughput) / start_brightest, constant<T>(0.95));
+      if (!(BounceRandom{&random, kLightPathBounce + segments}.template uniform<T>(kDimRoulette) < q)) break;
+      throughput = throughput / q;
+    }
+    if (!(max_component(throughput) > T(0))) break;
+  }
+  return count;
+}
+
+// ---- The camera subpath, joined to the light subpath ----
+// The radiance a camera vertex `at` (on material `material`, reached along `ray` with path throughput `throughput`,
+// `segments` from the camera) receives from the light vertices: each joined by a segment whose visibility is traced.
+template <class T>
+PT_HD inline Color<T> connect_to_light_vertices(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at,
+                                                bool in_medium, const Material<T>& material, const Color<T>& throughput, T reverse_mis, T connect_mis,
+                                                u32 segments, const LightVertex<T>* vertices, u32 count, u32& rays) {
+  Color<T> sum{};
+  const Vec3<T> toward_camera = -ray.direction;
+  for (u32 i = 0; i < count; ++i) {
+    const LightVertex<T>& y = vertices[i];
+    if (y.segments + segments + 1 > scene.params.max_depth) break;  // kept in order of length
+    const Vec3<T> offset = y.at.p - at.p;
+    const T distance2 = length_squared(offset);
+    if (!(distance2 > T(0))) continue;
+    const Vec3<T> direction = offset / sqrt(distance2);
+    const ScatterValue<T> here = material_evaluate(material, at, toward_camera, direction, scene.textures, scene.texture_data);
+    if (!(max_component(here.value) > T(0))) continue;
+    const Material<T>& light_material = scene.materials[y.at.material];
+    const ScatterValue<T> there = material_evaluate(light_material, y.at, -direction, y.toward_light, scene.textures, scene.texture_data);
+    if (!(max_component(there.value) > T(0))) continue;
+    const T cosine_here = vertex_cosine(at, in_medium, direction), cosine_there = vertex_cosine(y.at, y.in_medium, direction);
+    const T incoming_cosine = vertex_cosine(y.at, y.in_medium, y.toward_light);
+    if (!(cosine_here > T(0) && cosine_there > T(0) && incoming_cosine > T(0))) continue;
+    // The densities of sampling each end's direction from the other side, per unit area at the far end.
+    const T reverse_here = material_evaluate(material, at, direction, toward_camera, scene.textures, scene.texture_data).pdf;
+    const T forward_there = material_evaluate(light_material, y.at, y.toward_light, -direction, scene.textures, scene.texture_data).pdf;
+    const T camera_to_light = here.pdf * cosine_there / distance2;
+    const T light_to_camera = forward_there * cosine_here / distance2;
+    const T light_share = mis_power(camera_to_light) * (y.reverse_mis + y.connect_mis * mis_power(there.pdf));
+    const T camera_share = mis_power(light_to_camera) * (reverse_mis + connect_mis * mis_power(reverse_here));
+    const T weight = T(1) / (light_share + T(1) + camera_share);
+    T transmitted;
+    ++rays;
+    if (!segment_transmittance(scene, at, y.at.p, y.in_medium ? kNoLight : y.primitive, y.triangle, ray.time, random, segments, transmitted)) continue;
+    sum += throughput * here.value * there.value * y.throughput * (weight * cosine_there * transmitted / (incoming_cosine * distance2));
+  }
+  return sum;
+}
+
+// Light sampling from a camera vertex (s = 1): a light picked and a point or direction drawn as the path tracer draws
+// them; the weight counts the light subpaths that could have made the same path as well.
+template <class T>
+PT_HD inline Color<T> connect_to_light(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at, bool in_medium,
+                                       const Material<T>& material, const Color<T>& throughput, T reverse_mis, T connect_mis, u32 bounce, u32& rays) {
+  const BounceRandom bounce_random{&random, bounce};
+  const u32 entry = choose_light(scene.lights, bounce_random);
+  LightSample<T> light;
+  if (!sample_light(scene, entry, at.p, ray.time, bounce_random, light)) return Color<T>{};
+  const Vec3<T> toward_camera = -ray.direction;
+  const ScatterValue<T> value = material_evaluate(material, at, toward_camera, light.direction, scene.textures, scene.texture_data);
+  if (!(max_component(value.value) > T(0))) return Color<T>{};
+  const Ray<T> shadow_ray = spawn_ray(at, light.direction, ray.time);
+  const LightEntry<T>& entry_data = scene.lights.entries[entry];
+  T optical_depth = T(0);
+  Hit<T> hit{};
+  const IntersectContext<T> context{scene.boundaries, &random, bounce, &optical_depth};
+  const T reach = light.distance + light.distance * constant<T>(1.0 / 1024);
+  ++rays;
+  const bool blocked = closest_hit(scene, shadow_ray, context, hit, reach);
+  if (entry_data.primitive == kNoLight) {
+    // The background: only the camera subpath reaches it, so the weight is the path tracer's.
+    if (blocked || !(light.pdf > T(0))) return Color<T>{};
+    return throughput * value.value * background_radiance(scene.background, light.direction) *
+           (light_sample_weight(light.pdf, value.pdf) * transmittance(optical_depth));
+  }
+  if (!blocked) {
+    if (!quad_light_reached(scene, entry_data.primitive, shadow_ray, hit)) return Color<T>{};
+  } else if (hit.primitive != entry_data.primitive || hit.triangle != light.triangle) {
+    return Color<T>{};
+  }
+  const Primitive<T>& primitive = scene.primitives[hit.primitive];
+  const Material<T>& light_material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
+  const SurfacePoint<T> on_light = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow_ray, hit, material_needs_uv(light_material, scene.textures));
+  const T direct = light.pdf > T(0) ? light.pdf : light_pdf(scene, entry, shadow_ray, hit, on_light);
+  if (!(direct > T(0))) return Color<T>{};
+  const T light_cosine = abs(dot(on_light.geometric_normal, light.direction));
+  const T cosine_here = vertex_cosine(at, in_medium, light.direction);
+  const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(light_cosine);
+  const T reverse_here = material_evaluate(material, at, light.direction, toward_camera, scene.textures, scene.texture_data).pdf;
+  const T scatter_share = mis_power(value.pdf / direct);
+  const T light_share = light_cosine > T(0) ? mis_power(emission * cosine_here / (direct * light_cosine)) * (reverse_mis + connect_mis * mis_power(reverse_here)) : T(0);
+  const T weight = T(1) / (scatter_share + T(1) + light_share);
+  return throughput * value.value * material_emitted(light_material, on_light, scene.textures, scene.texture_data) *
+         (weight * transmittance(optical_depth) / direct);
+}
+
+// One sample of pixel (x, y) by bidirectional path tracing: the light subpath first (its splats handed to `splat`),
+// then the camera subpath joined to it at each vertex. Returns what the sample adds to its own pixel.
+template <class T, class Splat>
+PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scene, u32 x, u32 y, u32 sample, const Splat& splat) {
+  const RenderParams<T>& params = scene.params;
+  const SampleRandom random = path_random(params, y * params.width + x, sample);
+  Ray<T> ray = camera_ray(scene.camera, params.width, params.height, x, y, random);
+  u32 rays = 0;
+  LightVertex<T> vertices[kMaxLightVertices];
+  const u32 count = trace_light_subpath(scene, random, ray.time, vertices, rays, splat);
+  const CameraImportance<T> primary = camera_importance(scene.camera, params.width, params.height, ray.origin, ray.direction);
+  Color<T> radiance{};
+  Color<T> throughput = Color<T>::splat(T(1));
+  T reverse_mis = primary.density > T(0) ? mis_power(T(1) / primary.density) : T(0);
+  T connect_mis = T(0);
+  T scatter_pdf = T(0);  // of the last direction, 0 for the camera ray and specular choices (as the path tracer keeps it)
+  for (u32 bounce = 0; bounce < params.max_depth; ++bounce) {
+    Hit<T> hit{};
+    ++rays;
+    if (!closest_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, bounce}, hit)) {
+      T weight = T(1);
+      if (scene.lights.background != kNoLight && scatter_pdf > T(0))
+        weight = scattered_light_weight(scatter_pdf, background_light_density(scene.lights.entries[scene.lights.background].pmf,
+                                                                              background_pdf(scene.background, ray.direction)));
+      radiance += throughput * background_radiance(scene.background, ray.direction) * weight;
+      break;
+    }
+    const Primitive<T>& primitive = scene.primitives[hit.primitive];
+    const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
+    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, ray, hit, material_needs_uv(material, scene.textures),
+                                            material_needs_tangent(material));
+    const bool in_medium = hit_in_medium(scene, hit);
+    const T cosine = vertex_cosine(at, in_medium, ray.direction);
+    reverse_mis *= mis_power(hit.t * hit.t);
+    if (cosine > T(0)) {
+      reverse_mis /= mis_power(cosine);
+      connect_mis /= mis_power(cosine);
+    }
+    // Emission met by the camera subpath (s = 0): weighed against light sampling from the previous vertex and against
+    // the light subpaths that start at this point.
+    const Color<T> emitted = material_emitted(material, at, scene.textures, scene.texture_data);
+    if (max_component(emitted) > T(0)) {
+      T weight = T(1);
+      const u32 entry = scene.lights.primitive_light[hit.primitive];
+      if (bounce > 0 && entry != kNoLight) {
+        const Ray<T> from_previous{ray.origin, ray.direction, ray.time};
+        const T direct = light_pdf(scene, entry, from_previous, hit, at) * cosine / (hit.t * hit.t);
+        const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(cosine);
+        weight = T(1) / (T(1) + mis_power(direct) * reverse_mis + mis_power(emission) * connect_mis);
+      }
+      radiance += throughput * emitted * weight;
+    }
+    if (bounce + 1 >= params.max_depth) break;
+    if (material_samples_lights(material)) {
+      if (scene.lights.count > 0)
+        radiance += connect_to_light(scene, random, ray, at, in_medium, material, throughput, reverse_mis, connect_mis, bounce, rays);
+      radiance += connect_to_light_vertices(scene, random, ray, at, in_medium, material, throughput, reverse_mis, connect_mis, bounce + 1, vertices,
+                                            count, rays);
+    }
+    Scatter<T> scatter;
+    const BounceRandom bounce_random{&random, bounce};
+    if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) break;
+    const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
+    if (scatter.pdf > T(0)) {
+      const T reverse = material_evaluate(material, at, scatter.ray.direction, -ray.direction, scene.textures, scene.texture_data).pdf;
+      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(reverse) + reverse_mis);
+      reverse_mis = mis_power(T(1) / scatter.pdf);
+    } else {
+      reverse_mis = T(0);
+      connect_mis *= mis_power(out_cosine);
+    }
+    throughput *= scatter.attenuation;
+    scatter_pdf = scatter.pdf;
+    ray = scatter.ray;
+    if (params.roulette_depth > 0 && bounce + 1 >= params.roulette_depth) {
+      const T q = min(max_component(throughput), constant<T>(0.95));
+      if (!(bounce_random.template uniform<T>(kDimRoulette) < q)) break;
+      throughput = throughput / q;
+    }
+  }
+  return SampleResult<T>{radiance, rays};
+}
+
+// ---- Splats ----
+// Light tracing adds to pixels other than the sample's own. Those sums are kept as integers (fixed point with 32
+// fraction bits, three a pixel) added atomically: integer addition does not depend on order, so the image is the
+// same whatever the threads, the tiles or the device, and the sums of one sample are folded into the film (in
+// double, after that sample's own contributions) before the next sample's are made.
+inline constexpr double kSplatScale = 4294967296.0;  // 2^32
+inline constexpr double kLargestSplat = 1e9;         // beyond this (far outside any image's range) a splat is clamped
+
+PT_HD inline u64 splat_bits(double value) {
+  if (!(value > 0)) return 0;  // also NaN
+  if (value > kLargestSplat) value = kLargestSplat;
+  return static_cast<u64>(value * kSplatScale + 0.5);
+}
+
+struct SplatFilm {
+  u64* sums;  // three a pixel
+  u32 width;
+  template <class T>
+  PT_HD void operator()(u32 x, u32 y, const Color<T>& value) const {
+    if (!is_finite(value)) return;
+    u64* pixel = sums + 3 * (static_cast<std::size_t>(y) * width + x);
+    atomic_fetch_add_u64(pixel + 0, splat_bits(static_cast<double>(value.x)));
+    atomic_fetch_add_u64(pixel + 1, splat_bits(static_cast<double>(value.y)));
+    atomic_fetch_add_u64(pixel + 2, splat_bits(static_cast<double>(value.z)));
+  }
+};
+
+// The bidirectional kernel over an image: one sample of pixel (x, first_row + y) added to the film (as
+// MegakernelSample adds one), its splats to `splats`.
+template <class T>
+struct BidirectionalSample {
+  SceneView<T> scene;
+  FilmPixel* film;
+  SplatFilm splats;
+  u32 sample;
+  PT_HD void operator()(u32 x, u32 y) const {
+    FilmPixel& pixel = film[static_cast<std::size_t>(y) * scene.params.width + x];
+    FilmPixel sum = pixel;
+    add_sample(sum, trace_bidirectional_sample(scene, x, y, sample, splats), sample);
+    pixel = sum;
+  }
+};
+
+// Folds one sample's splat sums into the film and clears them, pixel by pixel.
+struct FoldSplats {
+  FilmPixel* film;
+  u64* sums;
+  PT_HD void operator()(u32 pixel) const {
+    u64* s = sums + 3 * static_cast<std::size_t>(pixel);
+    if ((s[0] | s[1] | s[2]) == 0) return;
+    FilmPixel& p = film[pixel];
+    p.r += static_cast<double>(s[0]) / kSplatScale;
+    p.g += static_cast<double>(s[1]) / kSplatScale;
+    p.b += static_cast<double>(s[2]) / kSplatScale;
+    s[0] = s[1] = s[2] = 0;
+  }
+};
+
+}  // namespace pt
