@@ -66,6 +66,8 @@ class DeviceBackend final : public RenderBackend<T> {
       wavefront_ = std::make_unique<WavefrontIntegrator<D, T>>(device_, view_, film_);
     } else if (integrator_ == Integrator::kBidirectional) {
       // Light subpaths carry the light's power over its area, beyond the fixed-point formats' range.
+      // A pixel stopped by adaptive sampling would still take other pixels' splats but no samples of its own.
+      if (scene.noise_threshold > 0) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
       if constexpr (std::is_floating_point_v<T>)
         bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(device_, view_, film_);
       else
@@ -138,7 +140,6 @@ class DeviceBackend final : public RenderBackend<T> {
   // On the device: two launches over the pixels and a counter read back, where a copy of the film to the host and
   // back took longer than the samples between two judgements on a GPU.
   std::size_t stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) override {
-    // A stopped pixel would still take other pixels' splats but no samples of its own.
     if (bidirectional_) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
     if (static_cast<std::size_t>(width) * height != film_pixels_) throw BackendError("a film of another size cannot be judged");
     if (!judgement_) judgement_ = static_cast<u32*>(memory_.allocate((film_pixels_ + 1) * sizeof(u32), "allocating adaptive sampling's judgement"));

@@ -2,6 +2,7 @@
 
   knot.ply     a (3, 2) torus knot as a tube, 3,072 triangles with normals and texture coordinates (ASCII PLY)
   pedestal.gltf  a bevelled box with two materials, buffers embedded as a data URI (glTF 2.0)
+  ring.ply     a napkin ring: a short tube with inner and outer walls and flat rims, 1,024 triangles with normals
 
 Usage: python3 tools/scenes/make_models.py [--out scenes/models]
 """
@@ -52,6 +53,37 @@ def knot(path, turns=128, sides=12, tube=0.18):
         out.write(f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
         for p, n, uv in vertices:
             out.write(" ".join(f"{x:.6f}" for x in (*p, *n, *uv)) + "\n")
+        for f in faces:
+            out.write(f"4 {f[0]} {f[1]} {f[2]} {f[3]}\n")
+
+
+def ring(path, segments=128, outer=1.0, inner=0.94, height=0.35):
+    """An upright band standing on y = 0: its inner wall, a concave mirror when made of metal, draws a caustic."""
+    vertices, faces = [], []
+
+    def strip(radius_a, y_a, radius_b, y_b, normal_of):
+        first = len(vertices)
+        for i in range(segments):
+            a = 2 * math.pi * i / segments
+            c, s = math.cos(a), math.sin(a)
+            n = normal_of(c, s)
+            vertices.append(((radius_a * c, y_a, radius_a * s), n))
+            vertices.append(((radius_b * c, y_b, radius_b * s), n))
+        for i in range(segments):
+            j = (i + 1) % segments
+            faces.append((first + 2 * i, first + 2 * i + 1, first + 2 * j + 1, first + 2 * j))
+
+    strip(outer, 0.0, outer, height, lambda c, s: (c, 0.0, s))  # outer wall
+    strip(inner, height, inner, 0.0, lambda c, s: (-c, 0.0, -s))  # inner wall
+    strip(outer, height, inner, height, lambda c, s: (0.0, 1.0, 0.0))  # top rim
+    strip(inner, 0.0, outer, 0.0, lambda c, s: (0.0, -1.0, 0.0))  # bottom rim
+    with open(path, "w") as out:
+        out.write("ply\nformat ascii 1.0\ncomment a napkin ring, tools/scenes/make_models.py\n")
+        out.write(f"element vertex {len(vertices)}\nproperty float x\nproperty float y\nproperty float z\n")
+        out.write("property float nx\nproperty float ny\nproperty float nz\n")
+        out.write(f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+        for p, n in vertices:
+            out.write(" ".join(f"{x:.6f}" for x in (*p, *n)) + "\n")
         for f in faces:
             out.write(f"4 {f[0]} {f[1]} {f[2]} {f[3]}\n")
 
@@ -117,6 +149,7 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     knot(out / "knot.ply")
     pedestal(out / "pedestal.gltf")
+    ring(out / "ring.ply")
 
 
 if __name__ == "__main__":
