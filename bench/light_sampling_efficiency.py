@@ -7,8 +7,12 @@ render alone, device events on a GPU), the choices timed in turns over several r
 another choice's bit for bit, the table says so: their ratio is 1 but for the timing's noise. Efficiency is 1 / (variance x time); the table gives each choice's efficiency
 over the better of nee and none, the figure the default must keep near 1 (at least 0.95).
 
+With `--option integrator --choices auto,bdpt --best-of auto` it compares integrators instead: bidirectional path
+tracing against the path tracer each device takes by default.
+
   bench/light_sampling_efficiency.py PATHTRACER [--scenes a.json,b.json] [--size 400x240] [--spp 64] [--runs 3] [--rounds 3]
-                                     [--choices auto,nee,none] [-- extra options for render and bench, e.g. --backend cuda]
+                                     [--option light-sampling] [--choices auto,nee,none] [--best-of nee,none]
+                                     [-- extra options for render and bench, e.g. --backend cuda]
 """
 import argparse
 import filecmp
@@ -48,13 +52,16 @@ def main():
     parser.add_argument("--runs", type=int, default=3, help="bench's runs, of which it gives the median")
     parser.add_argument("--rounds", type=int, default=3, help="turns of timing every choice; the median of the rounds is kept")
     parser.add_argument("--choices", default="auto,nee,none")
+    parser.add_argument("--option", default="light-sampling", help="the command-line option whose values are compared")
+    parser.add_argument("--best-of", default="nee,none", help="the choices whose best efficiency the others are measured against")
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1:] if "--" in argv else []
     args = parser.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
     width, height = args.size.split("x")
     common = ["--width", width, "--height", height, "--spp", str(args.spp)] + extra
-    choices = args.choices.split(",")
-    print(f"| scene | {' | '.join(f'{c}: time, variance' for c in choices)} | {' | '.join(f'{c} / best of nee, none' for c in choices)} |")
+    choices, best_of = args.choices.split(","), args.best_of.split(",")
+    best_names = ", ".join(best_of)
+    print(f"| scene | {' | '.join(f'{c}: time, variance' for c in choices)} | {' | '.join(f'{c} / best of {best_names}' for c in choices)} |")
     print(f"| --- | {' | '.join('---' for _ in choices)} | {' | '.join('---' for _ in choices)} |")
     with tempfile.TemporaryDirectory() as folder:
         for scene in args.scenes.split(","):
@@ -63,7 +70,7 @@ def main():
                 pair = []
                 for seed in (11, 12):
                     image = os.path.join(folder, f"{choice}-{seed}.pfm")
-                    run([args.pathtracer, "render", scene, "--seed", str(seed), "--light-sampling", choice, "-q", "-o", image] + common)
+                    run([args.pathtracer, "render", scene, "--seed", str(seed), f"--{args.option}", choice, "-q", "-o", image] + common)
                     pair.append(image)
                 images[choice] = pair[0]
                 variances[choice] = variance(*pair)
@@ -71,7 +78,7 @@ def main():
             times = {choice: [] for choice in choices}
             for _ in range(args.rounds):
                 for choice in choices:
-                    text = run([args.pathtracer, "bench", scene, "--seed", "11", "--light-sampling", choice, "--runs", str(args.runs)] + common)
+                    text = run([args.pathtracer, "bench", scene, "--seed", "11", f"--{args.option}", choice, "--runs", str(args.runs)] + common)
                     times[choice].append(float(re.search(r"median of \d+: ([0-9.]+) s", text).group(1)))
             efficiency, cells = {}, []
             for choice in choices:
@@ -79,7 +86,7 @@ def main():
                 efficiency[choice] = 1 / (v * seconds) if v > 0 else float("inf")
                 same = [other for other in choices if other != choice and filecmp.cmp(images[choice], images[other], shallow=False)]
                 cells.append(f"{seconds:.4f} s, {v:.3g}" + (f" (= {', '.join(same)})" if same and choice == "auto" else ""))
-            best = max(efficiency.get(c, 0) for c in ("nee", "none"))
+            best = max(efficiency.get(c, 0) for c in best_of)
             ratios = [f"{efficiency[c] / best:.2f}" if best > 0 else "-" for c in choices]
             print(f"| {os.path.basename(scene)} | {' | '.join(cells)} | {' | '.join(ratios)} |", flush=True)
 

@@ -130,6 +130,36 @@ TEST(Bidirectional, ImagesDoNotDependOnThreadsOrPasses) {
   }
 }
 
+// The same on the GPU, where thousands of threads add splats in an order that changes from run to run: the film of
+// one pass of 4 samples is the film of passes of 1 and 3, bit for bit.
+TEST(Bidirectional, CudaImagesDoNotDependOnPasses) {
+#if !PT_HAVE_CUDA
+  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
+#else
+  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  for (const char* name : {"caustics", "cornell-smoke"}) {
+    const SceneDescription scene = load_scene_file(test::scene_path(std::string(name) + ".json"));
+    RenderSettings settings = scene.render;
+    settings.width = 160;
+    settings.height = 90;
+    const FlatScene<float> flat = flatten_scene<float>(scene, settings);
+    std::vector<std::vector<FilmPixel>> films;
+    for (const std::vector<u32>& passes : {std::vector<u32>{4}, std::vector<u32>{1, 3}}) {
+      const std::unique_ptr<RenderBackend<float>> backend = make_backend<float>("cuda", 0, 0, Integrator::kBidirectional);
+      backend->upload(flat);
+      u32 first = 0;
+      for (u32 count : passes) {
+        backend->render(first, count);
+        first += count;
+      }
+      films.emplace_back();
+      backend->read_film(films.back());
+    }
+    EXPECT_TRUE(test::same_film(films[0], films[1])) << name;
+  }
+#endif
+}
+
 // What bdpt cannot do is refused with one line: bands over several devices (splats cross them), adaptive sampling
 // (a stopped pixel would still take splats), the fixed-point formats, paths longer than its vertex store.
 TEST(Bidirectional, RefusesWhatItCannotDo) {

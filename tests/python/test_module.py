@@ -85,6 +85,16 @@ def test_threads_and_integrators_give_one_image():
         assert np.array_equal(image, images[0])
 
 
+def test_bdpt_is_the_programs_image_bit_for_bit_on_any_thread_count(tmp_path):
+    scene = SCENES / "caustics.json"
+    images = [pathtracer.render(scene, **SMALL, threads=t, integrator="bdpt").image for t in (1, 2)]
+    assert np.array_equal(images[0], images[1])
+    expected = program_render(tmp_path, scene, "--width", "40", "--height", "24", "--spp", "4", "--integrator", "bdpt")
+    assert np.array_equal(images[0], expected)
+    with pytest.raises(pathtracer.Error, match="bdpt renders in float or double"):
+        pathtracer.render(scene, **SMALL, integrator="bdpt", number_format="q16.16")
+
+
 def test_fixed_point_formats_render():
     formats = pathtracer.number_formats()
     assert {"float", "double", "q16.16"} <= set(formats)

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Runs on the GPU machine with out/device/ carried (tools/device/package.sh): bidirectional path tracing on the CUDA
+# backend. `check`: its tests (the expected image against the path tracer's at 8 times the CPU's samples, images the
+# same whatever the passes); `sanitize`: compute-sanitizer's memcheck and racecheck on a bdpt render; `bench`: time to
+# equal error of bdpt against the default integrator (bench/light_sampling_efficiency.py) on the scenes with
+# caustics and the shipped ones. Logs go to $OUT.
+# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench]   (all three when no argument is given)
+set -uo pipefail
+export LD_LIBRARY_PATH="$PWD/out/device/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export PT_SOURCE_DIR="$PWD" PT_PATHTRACER_BINARY="$PWD/out/device/bin/pathtracer"
+PT="$PWD/out/device/bin/pathtracer"
+OUT="${OUT:-/tmp/pt-out}"
+mkdir -p "$OUT"
+steps="${*:-check sanitize bench}"
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+
+if [[ $steps == *check* ]]; then
+  echo "== tests"
+  timeout 400 out/device/bin/pt_tests --gtest_filter='*Bidirectional*' >"$OUT/bdpt-tests.log" 2>&1
+  echo "exit $?"
+  grep -E "^\[  (PASSED|FAILED)|worst block|variance|SKIPPED" "$OUT/bdpt-tests.log" | head -60
+fi
+
+if [[ $steps == *sanitize* ]]; then
+  for tool in memcheck racecheck; do
+    echo "== compute-sanitizer $tool"
+    compute-sanitizer --tool $tool --error-exitcode 9 "$PT" render scenes/caustics.json --backend cuda --integrator bdpt --width 32 --height 18 \
+      --spp 1 -q -o "$OUT/sanitized.pfm" >"$OUT/sanitize-$tool.log" 2>&1
+    echo "exit $?"
+    tail -3 "$OUT/sanitize-$tool.log"
+  done
+fi
+
+if [[ $steps == *bench* ]]; then
+  echo "== time to equal error, bdpt against the default integrator (CUDA)"
+  python3 bench/light_sampling_efficiency.py "$PT" --option integrator --choices auto,bdpt --best-of auto --size 400x240 --spp 64 \
+    --runs 3 --rounds 2 --scenes scenes/caustics.json,scenes/cornell-glass.json,scenes/light-through-gap.json,scenes/cornell-box.json,scenes/cornell-smoke.json,scenes/seed-default.json,scenes/book1-final.json,scenes/meshes.json \
+    -- --backend cuda | tee "$OUT/bdpt-efficiency.md"
+fi
