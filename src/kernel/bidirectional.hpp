@@ -33,6 +33,25 @@ PT_HD inline T mis_power(T x) {
   return x * x;
 }
 
+// The kernel's calls of the BVH walk, the hit description and the material evaluation, each out of line (PT_NOINLINE).
+template <class T>
+PT_NOINLINE PT_HD bool bidirectional_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, T t_max) {
+  return closest_hit(scene, ray, context, hit, t_max);
+}
+
+template <class T>
+PT_NOINLINE PT_HD SurfacePoint<T> bidirectional_describe(const SceneView<T>& scene, const Ray<T>& ray, const Hit<T>& hit, const Material<T>& material,
+                                                          bool needs_tangent) {
+  return describe_hit(scene.primitives[hit.primitive], scene.triangle_attributes, scene.meshes, ray, hit, material_needs_uv(material, scene.textures),
+                      needs_tangent && material_needs_tangent(material));
+}
+
+template <class T>
+PT_NOINLINE PT_HD ScatterValue<T> bidirectional_evaluate(const SceneView<T>& scene, const Material<T>& material, const SurfacePoint<T>& at, const Vec3<T>& wo,
+                                                         const Vec3<T>& wi) {
+  return material_evaluate(material, at, wo, wi, scene.textures, scene.texture_data);
+}
+
 // A light subpath vertex where a connection can be made (a material light sampling serves: diffuse, glossy, a medium).
 // `throughput` is the light's emission times the subpath's scattering over its densities, up to the vertex (the cosine
 // at the vertex towards the previous one left out, as the path tracer's throughput leaves it out);
@@ -213,8 +232,8 @@ PT_HD inline bool segment_transmittance(const SceneView<T>& scene, const Surface
   Hit<T> hit{};
   const IntersectContext<T> context{scene.boundaries, &random, bounce, &optical_depth};
   if (target == kNoLight) {
-    if (closest_hit(scene, ray, context, hit, distance)) return false;
-  } else if (closest_hit(scene, ray, context, hit, distance + distance * constant<T>(1.0 / 1024))) {
+    if (bidirectional_hit(scene, ray, context, hit, distance)) return false;
+  } else if (bidirectional_hit(scene, ray, context, hit, distance + distance * constant<T>(1.0 / 1024))) {
     if (hit.primitive != target || hit.triangle != target_triangle || hit.t < distance - distance * constant<T>(1.0 / 512)) return false;
   }
   transmitted = transmittance(optical_depth);
@@ -240,11 +259,10 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
   for (u32 segments = 1; segments < params.max_depth; ++segments) {
     Hit<T> hit{};
     ++rays;
-    if (!closest_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, kLightPathBounce + segments}, hit)) break;
+    if (!bidirectional_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, kLightPathBounce + segments}, hit, largest<T>())) break;
     const Primitive<T>& primitive = scene.primitives[hit.primitive];
     const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
-    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, ray, hit, material_needs_uv(material, scene.textures),
-                                            material_needs_tangent(material));
+    const SurfacePoint<T> at = bidirectional_describe(scene, ray, hit, material, true);
     const bool in_medium = hit_in_medium(scene, hit);
     const Vec3<T> toward_light = -ray.direction;
     const T cosine = vertex_cosine(at, in_medium, toward_light);
@@ -287,7 +305,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
         const CameraImportance<T> seen = camera_importance(scene.camera, params.width, params.height, lens, -toward_camera);
         T transmitted;
         if (seen.density > T(0)) {
-          const ScatterValue<T> value = material_evaluate(material, at, toward_camera, toward_light, scene.textures, scene.texture_data);
+          const ScatterValue<T> value = bidirectional_evaluate(scene, material, at, toward_camera, toward_light);
           const T camera_cosine = vertex_cosine(at, in_medium, toward_camera);
           if (max_component(value.value) > T(0) && camera_cosine > T(0)) {
             ++rays;
@@ -307,7 +325,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
       if (!(scatter.pdf > T(0))) break;
       const Vec3<T> out = scatter.ray.direction;
       // The scattering of light arriving from the light side towards `out`, and the density of the reverse direction.
-      const ScatterValue<T> value = material_evaluate(material, at, out, toward_light, scene.textures, scene.texture_data);
+      const ScatterValue<T> value = bidirectional_evaluate(scene, material, at, out, toward_light);
       const T out_cosine = vertex_cosine(at, in_medium, out);
       if (!(cosine > T(0))) break;
       throughput *= value.value * (out_cosine / (cosine * scatter.pdf));
@@ -330,7 +348,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
 // The radiance a camera vertex `at` (on material `material`, reached along `ray` with path throughput `throughput`,
 // `segments` from the camera) receives from the light vertices: each joined by a segment whose visibility is traced.
 template <class T>
-PT_HD inline Color<T> connect_to_light_vertices(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at,
+PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at,
                                                 bool in_medium, const Material<T>& material, const Color<T>& throughput, T reverse_mis, T connect_mis,
                                                 u32 segments, const LightVertex<T>* vertices, u32 count, u32& rays) {
   Color<T> sum{};
@@ -342,17 +360,17 @@ PT_HD inline Color<T> connect_to_light_vertices(const SceneView<T>& scene, const
     const T distance2 = length_squared(offset);
     if (!(distance2 > T(0))) continue;
     const Vec3<T> direction = offset / sqrt(distance2);
-    const ScatterValue<T> here = material_evaluate(material, at, toward_camera, direction, scene.textures, scene.texture_data);
+    const ScatterValue<T> here = bidirectional_evaluate(scene, material, at, toward_camera, direction);
     if (!(max_component(here.value) > T(0))) continue;
     const Material<T>& light_material = scene.materials[y.at.material];
-    const ScatterValue<T> there = material_evaluate(light_material, y.at, -direction, y.toward_light, scene.textures, scene.texture_data);
+    const ScatterValue<T> there = bidirectional_evaluate(scene, light_material, y.at, -direction, y.toward_light);
     if (!(max_component(there.value) > T(0))) continue;
     const T cosine_here = vertex_cosine(at, in_medium, direction), cosine_there = vertex_cosine(y.at, y.in_medium, direction);
     const T incoming_cosine = vertex_cosine(y.at, y.in_medium, y.toward_light);
     if (!(cosine_here > T(0) && cosine_there > T(0) && incoming_cosine > T(0))) continue;
     // The densities of sampling each end's direction from the other side, per unit area at the far end.
-    const T reverse_here = material_evaluate(material, at, direction, toward_camera, scene.textures, scene.texture_data).pdf;
-    const T forward_there = material_evaluate(light_material, y.at, y.toward_light, -direction, scene.textures, scene.texture_data).pdf;
+    const T reverse_here = bidirectional_evaluate(scene, material, at, direction, toward_camera).pdf;
+    const T forward_there = bidirectional_evaluate(scene, light_material, y.at, y.toward_light, -direction).pdf;
     const T camera_to_light = here.pdf * cosine_there / distance2;
     const T light_to_camera = forward_there * cosine_here / distance2;
     const T light_share = mis_power(camera_to_light) * (y.reverse_mis + y.connect_mis * mis_power(there.pdf));
@@ -369,14 +387,14 @@ PT_HD inline Color<T> connect_to_light_vertices(const SceneView<T>& scene, const
 // Light sampling from a camera vertex (s = 1): a light picked and a point or direction drawn as the path tracer draws
 // them; the weight counts the light subpaths that could have made the same path as well.
 template <class T>
-PT_HD inline Color<T> connect_to_light(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at, bool in_medium,
+PT_NOINLINE PT_HD Color<T> connect_to_light(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at, bool in_medium,
                                        const Material<T>& material, const Color<T>& throughput, T reverse_mis, T connect_mis, u32 bounce, u32& rays) {
   const BounceRandom bounce_random{&random, bounce};
   const u32 entry = choose_light(scene.lights, bounce_random);
   LightSample<T> light;
   if (!sample_light(scene, entry, at.p, ray.time, bounce_random, light)) return Color<T>{};
   const Vec3<T> toward_camera = -ray.direction;
-  const ScatterValue<T> value = material_evaluate(material, at, toward_camera, light.direction, scene.textures, scene.texture_data);
+  const ScatterValue<T> value = bidirectional_evaluate(scene, material, at, toward_camera, light.direction);
   if (!(max_component(value.value) > T(0))) return Color<T>{};
   const Ray<T> shadow_ray = spawn_ray(at, light.direction, ray.time);
   const LightEntry<T>& entry_data = scene.lights.entries[entry];
@@ -385,7 +403,7 @@ PT_HD inline Color<T> connect_to_light(const SceneView<T>& scene, const SampleRa
   const IntersectContext<T> context{scene.boundaries, &random, bounce, &optical_depth};
   const T reach = light.distance + light.distance * constant<T>(1.0 / 1024);
   ++rays;
-  const bool blocked = closest_hit(scene, shadow_ray, context, hit, reach);
+  const bool blocked = bidirectional_hit(scene, shadow_ray, context, hit, reach);
   if (entry_data.primitive == kNoLight) {
     // The background: only the camera subpath reaches it, so the weight is the path tracer's.
     if (blocked || !(light.pdf > T(0))) return Color<T>{};
@@ -399,13 +417,13 @@ PT_HD inline Color<T> connect_to_light(const SceneView<T>& scene, const SampleRa
   }
   const Primitive<T>& primitive = scene.primitives[hit.primitive];
   const Material<T>& light_material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
-  const SurfacePoint<T> on_light = describe_hit(primitive, scene.triangle_attributes, scene.meshes, shadow_ray, hit, material_needs_uv(light_material, scene.textures));
+  const SurfacePoint<T> on_light = bidirectional_describe(scene, shadow_ray, hit, light_material, false);
   const T direct = light.pdf > T(0) ? light.pdf : light_pdf(scene, entry, shadow_ray, hit, on_light);
   if (!(direct > T(0))) return Color<T>{};
   const T light_cosine = abs(dot(on_light.geometric_normal, light.direction));
   const T cosine_here = vertex_cosine(at, in_medium, light.direction);
   const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(light_cosine);
-  const T reverse_here = material_evaluate(material, at, light.direction, toward_camera, scene.textures, scene.texture_data).pdf;
+  const T reverse_here = bidirectional_evaluate(scene, material, at, light.direction, toward_camera).pdf;
   const T scatter_share = mis_power(value.pdf / direct);
   const T light_share = light_cosine > T(0) ? mis_power(emission * cosine_here / (direct * light_cosine)) * (reverse_mis + connect_mis * mis_power(reverse_here)) : T(0);
   const T weight = T(1) / (scatter_share + T(1) + light_share);
@@ -432,7 +450,7 @@ PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scen
   for (u32 bounce = 0; bounce < params.max_depth; ++bounce) {
     Hit<T> hit{};
     ++rays;
-    if (!closest_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, bounce}, hit)) {
+    if (!bidirectional_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, bounce}, hit, largest<T>())) {
       T weight = T(1);
       if (scene.lights.background != kNoLight && scatter_pdf > T(0))
         weight = scattered_light_weight(scatter_pdf, background_light_density(scene.lights.entries[scene.lights.background].pmf,
@@ -442,8 +460,7 @@ PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scen
     }
     const Primitive<T>& primitive = scene.primitives[hit.primitive];
     const Material<T>& material = scene.materials[material_of_hit(primitive, scene.meshes, hit)];
-    const SurfacePoint<T> at = describe_hit(primitive, scene.triangle_attributes, scene.meshes, ray, hit, material_needs_uv(material, scene.textures),
-                                            material_needs_tangent(material));
+    const SurfacePoint<T> at = bidirectional_describe(scene, ray, hit, material, true);
     const bool in_medium = hit_in_medium(scene, hit);
     const T cosine = vertex_cosine(at, in_medium, ray.direction);
     reverse_mis *= mis_power(hit.t * hit.t);
@@ -477,7 +494,7 @@ PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scen
     if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) break;
     const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
     if (scatter.pdf > T(0)) {
-      const T reverse = material_evaluate(material, at, scatter.ray.direction, -ray.direction, scene.textures, scene.texture_data).pdf;
+      const T reverse = bidirectional_evaluate(scene, material, at, scatter.ray.direction, -ray.direction).pdf;
       connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(reverse) + reverse_mis);
       reverse_mis = mis_power(T(1) / scatter.pdf);
     } else {

@@ -29,6 +29,15 @@
 #define PT_HOST_NOINLINE __attribute__((noinline))
 #endif
 
+// Keeps a function out of line on every target. Bidirectional path tracing calls the BVH walk, the hit description and
+// the material evaluation from many places in one kernel; inlined at each, its code overflowed the GPU's instruction
+// cache (three quarters of its warps' stalls waiting for instructions: BENCHMARKS.md, "Bidirectional path tracing").
+#if defined(__CUDACC__)
+#define PT_NOINLINE __noinline__
+#else
+#define PT_NOINLINE __attribute__((noinline))
+#endif
+
 namespace pt {
 
 using u8 = std::uint8_t;
