@@ -181,6 +181,23 @@ TEST(SyclBackend, AutoTakesTheMegakernelOnEveryDevice) {
 }
 
 #ifdef PT_PATHTRACER_BINARY
+// --sycl-device picks the device of a render or a bench, the default --device list (0) notwithstanding: a device that
+// does not exist is refused, and each listed device renders under its own name.
+TEST(SyclBackend, SyclDeviceOptionPicksTheDevice) {
+  test::TempDir folder;
+  const test::CommandResult missing = test::run_pathtracer(
+      "bench " + test::quoted(test::scene_path("tiny.json")) + " --backend sycl --sycl-device 1000 --width 8 --height 8 --spp 1 --runs 1", folder);
+  EXPECT_NE(missing.exit_code, 0) << missing.err;
+  EXPECT_NE(missing.err.find("1000"), std::string::npos) << missing.err;
+  const std::vector<DeviceDescription> devices = sycl_devices();
+  for (std::size_t index = 0; index < devices.size(); ++index) {
+    if (devices[index].index < 0) continue;  // no usable device: the line above already failed
+    const std::unique_ptr<RenderBackend<float>> backend =
+        make_render_backend<float>("sycl", parse_device_list("0", "sycl"), 0, Integrator::kMegakernel, static_cast<int>(index));
+    EXPECT_NE(backend->name().find(devices[index].name), std::string::npos) << index << ": " << backend->name();
+  }
+}
+
 TEST(SyclBackend, DevicesCommandListsSyclDevices) {
   FILE* pipe = popen(("'" + test::pathtracer_binary() + "' devices").c_str(), "r");
   ASSERT_NE(pipe, nullptr);

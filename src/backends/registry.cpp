@@ -139,9 +139,13 @@ DeviceList parse_device_list(const std::string& text, const std::string& backend
 template <class T>
 std::unique_ptr<RenderBackend<T>> make_render_backend(const std::string& backend, const DeviceList& devices, unsigned threads, Integrator integrator,
                                                       int sycl_device, std::vector<std::unique_ptr<BandWorker>> remote) {
+  // For the sycl backend the indices of a list of several devices name SYCL devices; one device is --sycl-device's
+  // where given, else --device's where it is not the default 0, else the runtime's choice (negative).
+  const bool one_device = !devices.several && remote.empty();
+  const auto sycl_index = [&](int entry) { return !one_device ? entry : sycl_device >= 0 ? sycl_device : entry != 0 ? entry : -1; };
   const auto make_one = [&](int entry, unsigned entry_threads) {
     if (entry == kCpuDevice) return make_backend<T>("cpu", entry_threads, 0, integrator);
-    return make_backend<T>(backend, entry_threads, entry, integrator, backend == "sycl" ? entry : sycl_device);
+    return make_backend<T>(backend, entry_threads, entry, integrator, backend == "sycl" ? sycl_index(entry) : sycl_device);
   };
   if (!devices.several && remote.empty()) return make_one(devices.entries.at(0), threads);
   // CPU devices share the threads asked for (all cores by default), less one for each GPU's driving thread.
