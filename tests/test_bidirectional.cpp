@@ -3,13 +3,16 @@
 // and refuses, with one line, what it cannot do.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "backends/cpu/cpu_backend.hpp"
 #include "backends/registry.hpp"
+#include "film/film.hpp"
 #include "kernel/bidirectional.hpp"
 #include "kernel/fixed_point.hpp"
 #include "scene_cases.hpp"
@@ -54,10 +57,39 @@ RenderSettings settings_for(const SceneDescription& scene, const BidirectionalCa
   return settings;
 }
 
+// The SYCL device the tests use: PT_TEST_SYCL_DEVICE when set (an index of `pathtracer devices`), else the runtime's
+// default choice.
+int sycl_test_device() {
+  const char* chosen = std::getenv("PT_TEST_SYCL_DEVICE");
+  return chosen ? std::atoi(chosen) : -1;
+}
+
+template <class T>
+std::unique_ptr<RenderBackend<T>> backend_named(const std::string& name, Integrator integrator) {
+  return make_backend<T>(name, 0, 0, integrator, name == "sycl" ? sycl_test_device() : -1);
+}
+
 template <class T>
 test::PixelStatistics statistics(const std::string& backend_name, Integrator integrator, const FlatScene<T>& flat) {
-  const std::unique_ptr<RenderBackend<T>> backend = make_backend<T>(backend_name, 0, 0, integrator);
+  const std::unique_ptr<RenderBackend<T>> backend = backend_named<T>(backend_name, integrator);
   return test::backend_sample_statistics(*backend, flat, flat.samples_per_pixel);
+}
+
+// Why a GPU test cannot run here, or empty when it can.
+std::string why_no(const std::string& backend) {
+  if (backend == "cuda") {
+#if !PT_HAVE_CUDA
+    return "the CUDA backend is not built (no nvcc)";
+#else
+    if (cuda_device_count() == 0) return "no usable GPU on this machine";
+#endif
+  }
+  if (backend == "sycl") {
+#if !PT_HAVE_SYCL
+    return "the SYCL backend is not built (configure with -DPT_SYCL=ON)";
+#endif
+  }
+  return {};
 }
 
 // Both in float, with independent seeds; `factor` multiplies the case's samples.
@@ -79,12 +111,14 @@ TEST_P(BidirectionalMatchesPathTracer, BlockMeansAgreeWithinNoise) { expect_bidi
 
 // At 8 times the samples, where a bias of a fraction of a percent would show: on a GPU.
 TEST_P(BidirectionalMatchesPathTracer, CudaBlockMeansAgreeAtHighSampleCounts) {
-#if !PT_HAVE_CUDA
-  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
-#else
-  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+  if (const std::string why = why_no("cuda"); !why.empty()) GTEST_SKIP() << why;
   expect_bidirectional_matches_path_tracer(GetParam(), "cuda", 8);
-#endif
+}
+
+// The same through SYCL (on its GPU where PT_TEST_SYCL_DEVICE names one, at the CPU's samples on a CPU device).
+TEST_P(BidirectionalMatchesPathTracer, SyclBlockMeansAgreeWithinNoise) {
+  if (const std::string why = why_no("sycl"); !why.empty()) GTEST_SKIP() << why;
+  expect_bidirectional_matches_path_tracer(GetParam(), "sycl", std::getenv("PT_TEST_SYCL_DEVICE") ? 8 : 1);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, BidirectionalMatchesPathTracer,
@@ -132,13 +166,9 @@ TEST(Bidirectional, ImagesDoNotDependOnThreadsOrPasses) {
   }
 }
 
-// The same on the GPU, where thousands of threads add splats in an order that changes from run to run: the film of
+// The same on a GPU, where thousands of threads add splats in an order that changes from run to run: the film of
 // one pass of 4 samples is the film of passes of 1 and 3, bit for bit.
-TEST(Bidirectional, CudaImagesDoNotDependOnPasses) {
-#if !PT_HAVE_CUDA
-  GTEST_SKIP() << "the CUDA backend is not built (no nvcc)";
-#else
-  if (cuda_device_count() == 0) GTEST_SKIP() << "no usable GPU on this machine";
+void expect_images_independent_of_passes(const std::string& backend_name) {
   for (const char* name : {"caustics", "cornell-smoke"}) {
     const SceneDescription scene = load_scene_file(test::scene_path(std::string(name) + ".json"));
     RenderSettings settings = scene.render;
@@ -147,7 +177,7 @@ TEST(Bidirectional, CudaImagesDoNotDependOnPasses) {
     const FlatScene<float> flat = flatten_scene<float>(scene, settings);
     std::vector<std::vector<FilmPixel>> films;
     for (const std::vector<u32>& passes : {std::vector<u32>{4}, std::vector<u32>{1, 3}}) {
-      const std::unique_ptr<RenderBackend<float>> backend = make_backend<float>("cuda", 0, 0, Integrator::kBidirectional);
+      const std::unique_ptr<RenderBackend<float>> backend = backend_named<float>(backend_name, Integrator::kBidirectional);
       backend->upload(flat);
       u32 first = 0;
       for (u32 count : passes) {
@@ -157,9 +187,56 @@ TEST(Bidirectional, CudaImagesDoNotDependOnPasses) {
       films.emplace_back();
       backend->read_film(films.back());
     }
-    EXPECT_TRUE(test::same_film(films[0], films[1])) << name;
+    EXPECT_TRUE(test::same_film(films[0], films[1])) << name << " (" << backend_name << ")";
   }
-#endif
+}
+
+TEST(Bidirectional, CudaImagesDoNotDependOnPasses) {
+  if (const std::string why = why_no("cuda"); !why.empty()) GTEST_SKIP() << why;
+  expect_images_independent_of_passes("cuda");
+}
+
+TEST(Bidirectional, SyclImagesDoNotDependOnPasses) {
+  if (const std::string why = why_no("sycl"); !why.empty()) GTEST_SKIP() << why;
+  expect_images_independent_of_passes("sycl");
+}
+
+// The GPU runs the CPU's estimator sample for sample: with the same seed the two images share nearly every sample
+// (the bound and why it is not bitwise: tests/test_backend_parity.cpp), much closer than two CPU images of different
+// seeds, with the same mean.
+void expect_same_samples_as_the_cpu(const std::string& backend_name) {
+  for (const char* name : {"caustics", "cornell-glass", "cornell-smoke", "meshes"}) {
+    const SceneDescription scene = load_scene_file(test::scene_path(std::string(name) + ".json"));
+    RenderSettings settings = scene.render;
+    settings.width = 64;
+    settings.height = 48;
+    settings.samples_per_pixel = 16;
+    settings.max_depth = std::min<u32>(settings.max_depth, 8);
+    auto render = [&](const std::string& backend, u32 seed) {
+      RenderSettings seeded = settings;
+      seeded.seed = seed;
+      const std::unique_ptr<RenderBackend<float>> renderer = backend_named<float>(backend, Integrator::kBidirectional);
+      return render_scene(*renderer, flatten_scene<float>(scene, seeded)).image;
+    };
+    const LinearImage cpu = render("cpu", 5), gpu = render(backend_name, 5), cpu_other = render("cpu", 6);
+    const test::ImagePair same = test::compare_images(cpu, gpu);
+    const test::ImagePair independent = test::compare_images(cpu, cpu_other);
+    std::printf("%s (%s): rmse against the CPU %.3g, CPU against another seed %.3g, channels within 1e-3: %.1f%%\n", name, backend_name.c_str(),
+                same.rmse, independent.rmse, 100 * same.close_fraction);
+    EXPECT_LE(same.rmse, 0.25 * independent.rmse) << name;
+    EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3)) << name;
+    EXPECT_GE(same.close_fraction, 0.90) << name;
+  }
+}
+
+TEST(Bidirectional, CudaImagesShareTheCpusSamples) {
+  if (const std::string why = why_no("cuda"); !why.empty()) GTEST_SKIP() << why;
+  expect_same_samples_as_the_cpu("cuda");
+}
+
+TEST(Bidirectional, SyclImagesShareTheCpusSamples) {
+  if (const std::string why = why_no("sycl"); !why.empty()) GTEST_SKIP() << why;
+  expect_same_samples_as_the_cpu("sycl");
 }
 
 // What bdpt cannot do is refused with one line: bands over several devices (splats cross them), adaptive sampling

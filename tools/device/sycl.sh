@@ -4,8 +4,9 @@
 # compute-sanitizer on SYCL renders, the SYCL backend against the CUDA backend side by side, and the time from
 # command to image. The JIT cache is kept in $PT_SYCL_CACHE_DIR (default /tmp/pt-sycl-cache) and warmed before any
 # timing. CUDA_BINARY (default out/cuda-bin/pathtracer) is a CUDA build for the comparison; it loads its libraries
-# from the SYCL package. Logs go to $OUT.
-# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time] [hang] [probe] [profile]   (check sanitize bench time when no argument is given)
+# from the SYCL package. `bdpt`: bidirectional path tracing through SYCL (compute-sanitizer, time to equal error;
+# its tests are among `check`'s). Logs go to $OUT.
+# Usage: bash tools/device/sycl.sh [check] [sanitize] [bench] [time] [hang] [probe] [profile] [bdpt]   (check sanitize bench time when no argument is given)
 set -uo pipefail
 OUT="${OUT:-/tmp/pt-out}"
 mkdir -p "$OUT"
@@ -128,4 +129,14 @@ if [[ $steps == *profile* ]]; then
     echo "-- $backend"
     grep -E "^  [A-Za-z_].*\(|Duration|Registers Per|Achieved Occupancy|Theoretical Occupancy|Block Limit Registers|Compute \(SM\) Throughput|Memory Throughput|L1/TEX Hit|L2 Hit|Warp Cycles Per Issued|Local Memory|Executed Ipc" "$OUT/ncu-intersect-$backend.txt" | cut -c1-110 | head -16
   done
+fi
+
+if [[ $steps == *bdpt* ]]; then
+  echo "== bdpt through SYCL: compute-sanitizer memcheck on a render, and its time to equal error against SYCL's default integrator"
+  compute-sanitizer --tool memcheck --error-exitcode 9 "$PT" render "$repo/scenes/caustics.json" --backend sycl --sycl-device "$gpu" --integrator bdpt \
+    --width 32 --height 18 --spp 1 -q -o "$SCRATCH/sanitize.pfm" >"$OUT/sycl-bdpt-memcheck.log" 2>&1
+  echo "memcheck exit $?"; tail -2 "$OUT/sycl-bdpt-memcheck.log"
+  (cd "$repo" && python3 bench/light_sampling_efficiency.py "$PT" --option integrator --choices auto,bdpt --best-of auto --size 400x240 --spp 64 \
+    --runs 3 --rounds 2 --scenes scenes/caustics.json,scenes/cornell-glass.json,scenes/light-through-gap.json,scenes/cornell-box.json,scenes/book1-final.json \
+    -- --backend sycl --sycl-device "$gpu") | tee "$OUT/sycl-bdpt-efficiency.md"
 fi
