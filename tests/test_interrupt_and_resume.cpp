@@ -59,6 +59,9 @@ void expect_resume_is_bitwise_equal(Integrator integrator) {
 
 TEST(ResumedRender, MegakernelFilmIsBitwiseEqualToAnUninterruptedOne) { expect_resume_is_bitwise_equal(Integrator::kMegakernel); }
 TEST(ResumedRender, WavefrontFilmIsBitwiseEqualToAnUninterruptedOne) { expect_resume_is_bitwise_equal(Integrator::kWavefront); }
+// Bidirectional path tracing folds each sample's splats into the film before the next sample, so a film saved between
+// passes holds whole samples and resumes as well.
+TEST(ResumedRender, BidirectionalFilmIsBitwiseEqualToAnUninterruptedOne) { expect_resume_is_bitwise_equal(Integrator::kBidirectional); }
 
 TEST(ResumedRender, TimeLimitStopsEarly) {
   const FlatScene<float> scene = test::tiny_reference_scene<float>(1000000, 3);

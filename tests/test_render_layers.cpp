@@ -109,10 +109,13 @@ TEST(RenderLayers, DependOnNoThreadCountIntegratorOrSplitOfTheSamples) {
   small.render.samples_per_pixel = 20;
   const Rendered<float> one = render_with_layers<float>(small, "cpu", 1, Integrator::kMegakernel);
   const Rendered<float> two = render_with_layers<float>(small, "cpu", 2, Integrator::kWavefront);
-  ASSERT_EQ(one.layers.channels.size(), two.layers.channels.size());
-  for (std::size_t c = 0; c < one.layers.channels.size(); ++c)
-    EXPECT_EQ(0, std::memcmp(one.layers.channels[c].second.data(), two.layers.channels[c].second.data(), one.layers.channels[c].second.size() * 4))
-        << one.layers.channels[c].first;
+  const Rendered<float> bidirectional = render_with_layers<float>(small, "cpu", 2, Integrator::kBidirectional);
+  for (const Rendered<float>* other : {&two, &bidirectional}) {
+    ASSERT_EQ(one.layers.channels.size(), other->layers.channels.size());
+    for (std::size_t c = 0; c < one.layers.channels.size(); ++c)
+      EXPECT_EQ(0, std::memcmp(one.layers.channels[c].second.data(), other->layers.channels[c].second.data(), one.layers.channels[c].second.size() * 4))
+          << one.layers.channels[c].first;
+  }
   // Samples [0, 16) in one call, or as 5 and 11.
   const FlatScene<float> flat = flatten_scene<float>(small, small.render);
   const auto backend = make_backend<float>("cpu", 2, 0);
