@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Time to equal error of the light-sampling choices (auto, nee, none) on scenes, side by side in one run.
 
-Each choice renders each scene with two seeds; for unbiased estimators the mean squared difference of the two images
-is twice the variance of one, so the variance needs no reference image. The time is the median of `bench` (the
+Each choice renders each scene with two seeds (`--seeds N`: N); for unbiased estimators the spread of the images
+about their mean is the variance of one, so the variance needs no reference image. Where a few rare, very bright
+samples make most of the variance (caustics found by chance), one pair's estimate scatters widely: take more seeds. The time is the median of `bench` (the
 render alone, device events on a GPU), the choices timed in turns over several rounds. Where auto's image equals
 another choice's bit for bit, the table says so: their ratio is 1 but for the timing's noise. Efficiency is 1 / (variance x time); the table gives each choice's efficiency
 over the better of nee and none, the figure the default must keep near 1 (at least 0.95).
@@ -11,7 +12,7 @@ With `--option integrator --choices auto,bdpt --best-of auto` it compares integr
 tracing against the path tracer each device takes by default.
 
   bench/light_sampling_efficiency.py PATHTRACER [--scenes a.json,b.json] [--size 400x240] [--spp 64] [--runs 3] [--rounds 3]
-                                     [--option light-sampling] [--choices auto,nee,none] [--best-of nee,none]
+                                     [--option light-sampling] [--choices auto,nee,none] [--best-of nee,none] [--seeds 2]
                                      [-- extra options for render and bench, e.g. --backend cuda]
 """
 import argparse
@@ -36,11 +37,16 @@ def run(command):
     return result.stdout + result.stderr
 
 
-def variance(path_a, path_b):
-    """The per-value variance of one image, from two independent renders."""
-    width, height, a = read_pfm(path_a)
-    _, _, b = read_pfm(path_b)
-    return sum((x - y) ** 2 for x, y in zip(a, b)) / (2 * len(a))
+def variance(paths):
+    """The per-value variance of one image, from independent renders (the unbiased sample variance of each value
+    across them, averaged over the values; from two renders, half their mean squared difference)."""
+    images = [read_pfm(path)[2] for path in paths]
+    n = len(images)
+    total = 0.0
+    for values in zip(*images):
+        mean = sum(values) / n
+        total += sum((x - mean) ** 2 for x in values) / (n - 1)
+    return total / len(images[0])
 
 
 def main():
@@ -54,6 +60,8 @@ def main():
     parser.add_argument("--choices", default="auto,nee,none")
     parser.add_argument("--option", default="light-sampling", help="the command-line option whose values are compared")
     parser.add_argument("--best-of", default="nee,none", help="the choices whose best efficiency the others are measured against")
+    parser.add_argument("--seeds", type=int, default=2,
+                        help="independent renders the variance is estimated from (more where rare bright samples make it scatter)")
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1:] if "--" in argv else []
     args = parser.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
@@ -67,13 +75,13 @@ def main():
         for scene in args.scenes.split(","):
             images, variances = {}, {}
             for choice in choices:
-                pair = []
-                for seed in (11, 12):
+                renders = []
+                for seed in range(11, 11 + max(args.seeds, 2)):
                     image = os.path.join(folder, f"{choice}-{seed}.pfm")
                     run([args.pathtracer, "render", scene, "--seed", str(seed), f"--{args.option}", choice, "-q", "-o", image] + common)
-                    pair.append(image)
-                images[choice] = pair[0]
-                variances[choice] = variance(*pair)
+                    renders.append(image)
+                images[choice] = renders[0]
+                variances[choice] = variance(renders)
             # The choices timed in turns, so that a machine's changing load falls on all of them alike.
             times = {choice: [] for choice in choices}
             for _ in range(args.rounds):
