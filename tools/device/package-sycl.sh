@@ -44,8 +44,7 @@ pt_sycl="$(ldd "$build/pathtracer" | awk '$1 == "libpt_sycl.so" && $3 ~ /^\// {p
 [ -n "$pt_sycl" ] || pt_sycl="$(find "$build" -name libpt_sycl.so -print -quit)"
 [ -f "$pt_sycl" ] || { echo "libpt_sycl.so not found (was the build configured with -DPT_SYCL=ON?)" >&2; exit 1; }
 cp -L "$pt_sycl" "$out/lib/"
-# Without their symbol tables the programs and the backend pack 2 MiB smaller, which keeps the package and the source
-# tree within what a device run carries (64 MiB).
+# Without their symbol tables the programs and the backend pack 2 MiB smaller: less to copy to the GPU machine.
 strip --strip-unneeded "$out"/bin/* "$out/lib/libpt_sycl.so"
 
 # AdaptiveCpp's runtime with its plugin folders (backends, LLVM-to-backend translators, bitcode), same layout as installed.
