@@ -59,13 +59,7 @@ void expect_parity_with_cpu(const std::string& backend, const std::string& scene
   other_seed.seed = 12;
   const LinearImage cpu_other = render_with("cpu", scene, other_seed);
 
-  const test::ImagePair same = test::compare_images(cpu, gpu);
-  const test::ImagePair independent = test::compare_images(cpu, cpu_other);
-  EXPECT_LE(same.rmse, 0.25 * independent.rmse) << "same-seed CPU and " << backend << " images should share nearly all samples";
-  EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3));
-  EXPECT_GE(same.close_fraction, 0.90);
-  std::printf("%s: rmse cpu-%s %.3g vs cpu-cpu(other seed) %.3g, means %.6f / %.6f, channels within 1e-3: %.1f%%\n", scene_name.c_str(),
-              backend.c_str(), same.rmse, independent.rmse, same.mean_a, same.mean_b, 100 * same.close_fraction);
+  test::expect_same_samples_as_the_cpu(cpu, gpu, cpu_other, scene_name + " (" + backend + ")");
 }
 
 class BackendParity : public ::testing::TestWithParam<std::string> {};

@@ -57,16 +57,9 @@ RenderSettings settings_for(const SceneDescription& scene, const BidirectionalCa
   return settings;
 }
 
-// The SYCL device the tests use: PT_TEST_SYCL_DEVICE when set (an index of `pathtracer devices`), else the runtime's
-// default choice.
-int sycl_test_device() {
-  const char* chosen = std::getenv("PT_TEST_SYCL_DEVICE");
-  return chosen ? std::atoi(chosen) : -1;
-}
-
 template <class T>
 std::unique_ptr<RenderBackend<T>> backend_named(const std::string& name, Integrator integrator) {
-  return make_backend<T>(name, 0, 0, integrator, name == "sycl" ? sycl_test_device() : -1);
+  return make_backend<T>(name, 0, 0, integrator, name == "sycl" ? test::sycl_test_device() : -1);
 }
 
 template <class T>
@@ -202,9 +195,8 @@ TEST(Bidirectional, SyclImagesDoNotDependOnPasses) {
 }
 
 // The GPU runs the CPU's estimator sample for sample: with the same seed the two images share nearly every sample
-// (the bound and why it is not bitwise: tests/test_backend_parity.cpp), much closer than two CPU images of different
-// seeds, with the same mean.
-void expect_same_samples_as_the_cpu(const std::string& backend_name) {
+// (test::expect_same_samples_as_the_cpu).
+void expect_bidirectional_shares_the_cpus_samples(const std::string& backend_name) {
   for (const char* name : {"caustics", "cornell-glass", "cornell-smoke", "meshes"}) {
     const SceneDescription scene = load_scene_file(test::scene_path(std::string(name) + ".json"));
     RenderSettings settings = scene.render;
@@ -218,25 +210,18 @@ void expect_same_samples_as_the_cpu(const std::string& backend_name) {
       const std::unique_ptr<RenderBackend<float>> renderer = backend_named<float>(backend, Integrator::kBidirectional);
       return render_scene(*renderer, flatten_scene<float>(scene, seeded)).image;
     };
-    const LinearImage cpu = render("cpu", 5), gpu = render(backend_name, 5), cpu_other = render("cpu", 6);
-    const test::ImagePair same = test::compare_images(cpu, gpu);
-    const test::ImagePair independent = test::compare_images(cpu, cpu_other);
-    std::printf("%s (%s): rmse against the CPU %.3g, CPU against another seed %.3g, channels within 1e-3: %.1f%%\n", name, backend_name.c_str(),
-                same.rmse, independent.rmse, 100 * same.close_fraction);
-    EXPECT_LE(same.rmse, 0.25 * independent.rmse) << name;
-    EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3)) << name;
-    EXPECT_GE(same.close_fraction, 0.90) << name;
+    test::expect_same_samples_as_the_cpu(render("cpu", 5), render(backend_name, 5), render("cpu", 6), std::string(name) + " (" + backend_name + ")");
   }
 }
 
 TEST(Bidirectional, CudaImagesShareTheCpusSamples) {
   if (const std::string why = why_no("cuda"); !why.empty()) GTEST_SKIP() << why;
-  expect_same_samples_as_the_cpu("cuda");
+  expect_bidirectional_shares_the_cpus_samples("cuda");
 }
 
 TEST(Bidirectional, SyclImagesShareTheCpusSamples) {
   if (const std::string why = why_no("sycl"); !why.empty()) GTEST_SKIP() << why;
-  expect_same_samples_as_the_cpu("sycl");
+  expect_bidirectional_shares_the_cpus_samples("sycl");
 }
 
 // What bdpt cannot do is refused with one line: bands over several devices (splats cross them), adaptive sampling

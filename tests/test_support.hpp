@@ -648,6 +648,27 @@ inline ImagePair compare_images(const LinearImage& a, const LinearImage& b) {
   return out;
 }
 
+// Whether `other` (another backend's render with the seed of `cpu`) shares nearly all of its samples with the CPU's:
+// much closer to it than a CPU render of another seed (RMSE at most a quarter), the same mean within 0.5 %, and at
+// least 90 % of channels within 1e-3. Why not bitwise: tests/test_backend_parity.cpp.
+inline void expect_same_samples_as_the_cpu(const LinearImage& cpu, const LinearImage& other, const LinearImage& cpu_other_seed,
+                                           const std::string& label) {
+  const ImagePair same = compare_images(cpu, other);
+  const ImagePair independent = compare_images(cpu, cpu_other_seed);
+  std::printf("%s: rmse against the CPU %.3g, CPU against another seed %.3g, means %.6f / %.6f, channels within 1e-3: %.1f%%\n", label.c_str(),
+              same.rmse, independent.rmse, same.mean_a, same.mean_b, 100 * same.close_fraction);
+  EXPECT_LE(same.rmse, 0.25 * independent.rmse) << label << ": same-seed images should share nearly all samples";
+  EXPECT_NEAR(same.mean_a, same.mean_b, 5e-3 * std::max(same.mean_a, 1e-3)) << label;
+  EXPECT_GE(same.close_fraction, 0.90) << label;
+}
+
+// The SYCL device the tests use: PT_TEST_SYCL_DEVICE when set (an index of `pathtracer devices`), else the runtime's
+// default choice (negative).
+inline int sycl_test_device() {
+  const char* chosen = std::getenv("PT_TEST_SYCL_DEVICE");
+  return chosen ? std::atoi(chosen) : -1;
+}
+
 // A shipped scene's name as a test name ("book1-final" -> "book1_final").
 inline std::string scene_test_name(const ::testing::TestParamInfo<std::string>& info) {
   std::string name = info.param;

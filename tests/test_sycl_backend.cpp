@@ -30,12 +30,8 @@ namespace {
 
 #if PT_HAVE_SYCL
 
-// The device the tests use: PT_TEST_SYCL_DEVICE when set (an index of `pathtracer devices`), else the
-// runtime's default choice.
-int test_device() {
-  const char* chosen = std::getenv("PT_TEST_SYCL_DEVICE");
-  return chosen ? std::atoi(chosen) : -1;
-}
+// The device the tests use: test::sycl_test_device().
+int test_device() { return test::sycl_test_device(); }
 
 struct Rendered {
   LinearImage image;
