@@ -65,6 +65,7 @@ struct RenderOptions {
   std::optional<std::string> sampler;         // "sobol" or "independent"; the scene's (sobol by default) if omitted
   std::optional<double> noise_threshold;      // adaptive sampling; the scene's (off by default) if omitted
   std::optional<double> light_threshold;      // shadow-ray roulette; the scene's (0.01 by default) if omitted
+  std::string bdpt_schedule = "auto";         // bidirectional path tracing: one-kernel, staged or auto
   bool quiet = false;
   bool verbose = false;            // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
@@ -115,7 +116,9 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   RenderOverrides overrides{options.width, options.height, options.spp, options.depth, options.seed, {}, {}, options.noise_threshold, options.light_threshold};
   if (options.light_sampling) overrides.light_sampling = parse_light_sampling(*options.light_sampling);
   if (options.sampler) overrides.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
-  return apply_overrides(scene, overrides, kCommandLineSpelling);
+  RenderSettings settings = apply_overrides(scene, overrides, kCommandLineSpelling);
+  settings.bidirectional_schedule = parse_bidirectional_schedule(options.bdpt_schedule).value_or(BidirectionalSchedule::kAuto);
+  return settings;
 }
 
 // SIGINT or SIGTERM: the first asks the render to stop after the pass under way (or to give it up, under MPI) and
@@ -623,6 +626,12 @@ int main(int argc, char** argv) {
                      "megakernel (each path in one go), wavefront (stages over queues), auto (each backend's faster one), or bdpt "
                      "(bidirectional path tracing: light and camera subpaths joined, for caustics; docs/light-transport.md)")
         ->check(CLI::IsMember({"auto", "megakernel", "wavefront", "bdpt"}))
+        ->capture_default_str();
+    command
+        ->add_option("--bdpt-schedule", options.bdpt_schedule,
+                     "How bdpt runs on a device: one-kernel (each sample in one launch), staged (subpaths, then their connections as a "
+                     "launch of their own, over bands of rows) or auto (staged on GPUs, one kernel on the CPU); the same image either way")
+        ->check(CLI::IsMember({"auto", "one-kernel", "staged"}))
         ->capture_default_str();
     command
         ->add_option("--light-sampling", options.light_sampling,

@@ -69,7 +69,7 @@ class DeviceBackend final : public RenderBackend<T> {
       // A pixel stopped by adaptive sampling would still take other pixels' splats but no samples of its own.
       if (scene.noise_threshold > 0) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
       if constexpr (std::is_floating_point_v<T>)
-        bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(device_, view_, film_);
+        bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(device_, view_, film_, scene.bidirectional_schedule);
       else
         throw BackendError("bdpt renders in float or double (--number-format)");
     } else

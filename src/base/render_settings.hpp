@@ -17,6 +17,11 @@ namespace pt {
 // samples it as well at no shadow ray's cost.
 enum class LightSampling : u32 { kNone = 0, kNextEvent = 1, kAuto = 2 };
 
+// How bidirectional path tracing is scheduled on a device: each sample in one kernel, or in stages over bands of rows
+// with the connections a launch of their own (integrators/bidirectional.hpp); auto takes the stages on GPUs, where they
+// are the faster, and one kernel on the host. Both make the same image bit for bit.
+enum class BidirectionalSchedule : u32 { kAuto = 0, kOneKernel = 1, kStaged = 2 };
+
 struct RenderSettings {
   u32 width = 800;
   u32 height = 480;
@@ -32,6 +37,7 @@ struct RenderSettings {
   // Light samples that could add less than this to a sample are taken by chance, counted by the inverse of that chance
   // (kernel/integrator.hpp, sample_next_event); 0 takes every one. Radiance of 1 is white on the display.
   double light_threshold = 0.01;
+  BidirectionalSchedule bidirectional_schedule = BidirectionalSchedule::kAuto;
 };
 
 // The largest light threshold taken: more would trace nearly no shadow ray of a white light.
@@ -44,6 +50,17 @@ inline const char* sampler_name(SamplerKind kind) { return kind == SamplerKind::
 
 inline const char* light_sampling_name(LightSampling sampling) {
   return sampling == LightSampling::kNone ? "none" : sampling == LightSampling::kNextEvent ? "nee" : "auto";
+}
+
+inline const char* bidirectional_schedule_name(BidirectionalSchedule schedule) {
+  return schedule == BidirectionalSchedule::kOneKernel ? "one-kernel" : schedule == BidirectionalSchedule::kStaged ? "staged" : "auto";
+}
+
+// The schedule of a name (auto, one-kernel, staged), or nothing for another text.
+inline std::optional<BidirectionalSchedule> parse_bidirectional_schedule(std::string_view name) {
+  for (const BidirectionalSchedule s : {BidirectionalSchedule::kAuto, BidirectionalSchedule::kOneKernel, BidirectionalSchedule::kStaged})
+    if (name == bidirectional_schedule_name(s)) return s;
+  return std::nullopt;
 }
 
 // The light sampling of a name (auto, nee, none), or nothing for another text.

@@ -49,6 +49,7 @@ struct FlatScene {
   RenderParams<T> params;
   u32 samples_per_pixel = 0;
   double noise_threshold = 0;  // adaptive sampling (film/adaptive.hpp); 0: off
+  BidirectionalSchedule bidirectional_schedule = BidirectionalSchedule::kAuto;
   u32 bvh_depth = 0;
   double bvh_seconds = 0;  // time flatten_scene spent building the BVH (reported by `render --verbose`)
   double scale = 1;        // every length of the scene was multiplied by this to fit the scalar type (docs/numerics.md)

@@ -839,6 +839,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   flat.srgb_decode = srgb_decode_table();
   flat.samples_per_pixel = settings.samples_per_pixel;
   flat.noise_threshold = settings.noise_threshold;
+  flat.bidirectional_schedule = settings.bidirectional_schedule;
   check_pixel_resolution(fit, camera, settings.width, settings.height);
   // auto: the background joins the lights only where scattering alone would find it noisily; with no light left,
   // paths run exactly as without light sampling.

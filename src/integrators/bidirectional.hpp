@@ -1,25 +1,44 @@
-// The bidirectional integrator on any device: for each sample, one launch over the image that traces a light subpath
-// and a camera subpath per pixel (kernel/bidirectional.hpp) and one that folds that sample's splats into the film.
+// The bidirectional integrator on any device, sample after sample: either one launch over the image that traces a
+// light subpath and a camera subpath per pixel and joins them (kernel/bidirectional.hpp, BidirectionalSample), or the
+// staged schedule, three launches over a band of rows at a time (subpaths; connections; gathering), then one that
+// folds that sample's splats into the film. Both make the same image bit for bit.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
 
+#include "base/render_settings.hpp"
 #include "integrators/device.hpp"
 #include "kernel/bidirectional.hpp"
 
 namespace pt {
 
+// The staged schedule's buffers for a band: a GPU wants a band of a few hundred thousand pixels to fill its threads;
+// the host keeps a band near its caches.
+inline constexpr std::size_t kGpuBidirectionalBandBytes = std::size_t{2} << 30;
+inline constexpr std::size_t kHostBidirectionalBandBytes = std::size_t{8} << 20;
+
+// Whether the staged schedule runs: as asked, or by default where the device is not the host (BENCHMARKS.md: on a GPU
+// it is the faster, on a CPU one kernel a sample is).
+template <Device D>
+bool bidirectional_staged(const D& device, BidirectionalSchedule schedule) {
+  return schedule == BidirectionalSchedule::kAuto ? !device.host() : schedule == BidirectionalSchedule::kStaged;
+}
+
 template <Device D, class T>
 class BidirectionalIntegrator {
  public:
-  BidirectionalIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film) : device_(device), scene_(scene), film_(film) {
-    if (scene.params.max_depth > kMaxBidirectionalDepth)
+  BidirectionalIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film, BidirectionalSchedule schedule)
+      : device_(device), scene_(scene), film_(film) {
+    const RenderParams<T>& params = scene.params;
+    if (params.max_depth > kMaxBidirectionalDepth)
       throw BackendError("bdpt traces paths of at most " + std::to_string(kMaxBidirectionalDepth) + " bounces; this render asks for " +
-                         std::to_string(scene.params.max_depth) + " (--depth)");
-    const std::size_t bytes = 3 * sizeof(u64) * static_cast<std::size_t>(scene.params.width) * scene.params.height;
+                         std::to_string(params.max_depth) + " (--depth)");
+    const std::size_t bytes = 3 * sizeof(u64) * static_cast<std::size_t>(params.width) * params.height;
     splats_ = static_cast<u64*>(memory_.allocate(bytes, "allocating the splat sums"));
     device_.clear(splats_, bytes, "clearing the splat sums");
+    if (bidirectional_staged(device_, schedule)) allocate_band(device_.host() ? kHostBidirectionalBandBytes : kGpuBidirectionalBandBytes);
   }
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film, light tracing's splats
@@ -28,7 +47,19 @@ class BidirectionalIntegrator {
     const u32 width = scene_.params.width, height = scene_.params.height;
     const typename D::Timer timer = device_.start_timer();
     for (u32 s = first_sample; s < first_sample + sample_count; ++s) {
-      device_.launch_image("launching the bidirectional kernel", width, height, BidirectionalSample<T>{scene_, film_, SplatFilm{splats_, width}, s});
+      const SplatFilm splats{splats_, width};
+      if (band_rows_ == 0) {
+        device_.launch_image("launching the bidirectional kernel", width, height, BidirectionalSample<T>{scene_, film_, splats, s});
+      } else {
+        for (u32 first_row = 0; first_row < height; first_row += band_rows_) {
+          const u32 rows = std::min(band_rows_, height - first_row);
+          band_.first_row = first_row;
+          band_.pixels = rows * width;
+          device_.launch_image("launching the bidirectional subpaths", width, rows, BidirectionalSubpaths<T>{scene_, band_, splats, s});
+          device_.launch("launching the bidirectional connections", band_.pixels * camera_slots_, BidirectionalConnect<T>{scene_, band_, s});
+          device_.launch("launching the bidirectional gathering", band_.pixels, BidirectionalGather<T>{band_, film_, width, s});
+        }
+      }
       device_.launch("folding the splats", width * height, FoldSplats{film_, splats_});
     }
     device_.stop_timer(timer, &seconds_);
@@ -37,12 +68,42 @@ class BidirectionalIntegrator {
 
   double seconds() const { return seconds_; }
 
+  // Rows a band of the staged schedule holds (0: one kernel a sample).
+  u32 band_rows() const { return band_rows_; }
+
  private:
+  // Buffers for as many whole rows as `budget` bytes hold (at least one).
+  void allocate_band(std::size_t budget) {
+    const u32 width = scene_.params.width, height = scene_.params.height, depth = scene_.params.max_depth;
+    const u32 light_slots = std::max(depth, 3u) - 2;
+    camera_slots_ = std::max(depth, 2u) - 1;
+    const std::size_t per_pixel = light_slots * sizeof(LightVertex<T>) + camera_slots_ * (sizeof(CameraVertex<T>) + sizeof(ConnectionSum<T>)) +
+                                  sizeof(SampleResult<T>) + 2 * sizeof(u32);
+    band_rows_ = static_cast<u32>(std::clamp<std::size_t>(budget / (per_pixel * width), 1, height));
+    // Stage 2 launches (camera slots x band pixels) items: keep that within a launch's count.
+    while (band_rows_ > 1 && static_cast<std::size_t>(band_rows_) * width * camera_slots_ > 0xFFFFFFFFull) band_rows_ /= 2;
+    const std::size_t capacity = static_cast<std::size_t>(band_rows_) * width;
+    band_.capacity = static_cast<u32>(capacity);
+    band_.light_vertices = allocate<LightVertex<T>>(capacity * light_slots);
+    band_.camera_vertices = allocate<CameraVertex<T>>(capacity * camera_slots_);
+    band_.connections = allocate<ConnectionSum<T>>(capacity * camera_slots_);
+    band_.direct = allocate<SampleResult<T>>(capacity);
+    band_.light_counts = allocate<u32>(capacity);
+    band_.camera_counts = allocate<u32>(capacity);
+  }
+
+  template <class E>
+  E* allocate(std::size_t count) {
+    return static_cast<E*>(memory_.allocate(count * sizeof(E), "allocating the bidirectional band"));
+  }
+
   D& device_;
   SceneView<T> scene_;
   FilmPixel* film_;
   DeviceAllocations<D> memory_{device_};
   u64* splats_ = nullptr;
+  BidirectionalBand<T> band_{};
+  u32 band_rows_ = 0, camera_slots_ = 0;
   double seconds_ = 0;
 };
 

@@ -79,6 +79,30 @@ struct LightVertexStore {
   PT_HD LightVertex<T>* vertices() { return std::launder(reinterpret_cast<LightVertex<T>*>(bytes)); }
 };
 
+// Vertices of one sample in an array shared with other samples: vertex i at first[i * stride]. The one-kernel schedule
+// keeps a sample's light vertices side by side (stride 1); the staged one keeps vertex i of every pixel of a band side by
+// side, so that neighbouring threads read neighbouring memory.
+template <class V>
+struct Strided {
+  V* first;
+  u32 stride;
+  PT_HD V& operator[](u32 i) const { return first[static_cast<std::size_t>(i) * stride]; }
+};
+
+// A camera subpath vertex where connections to light vertices are made (a material light sampling serves), with what
+// the connections need: the path's throughput up to it, the direction back towards the camera and the running
+// quantities of the weights.
+template <class T>
+struct CameraVertex {
+  SurfacePoint<T> at;
+  Color<T> throughput;
+  Vec3<T> toward_camera;  // unit, back along the subpath
+  T reverse_mis, connect_mis;
+  T time;
+  u32 segments;  // of the camera subpath up to here
+  bool in_medium;
+};
+
 // |cos| of a direction with a vertex's surface, 1 in a medium (no surface: densities per volume need no cosine).
 template <class T>
 PT_HD inline T vertex_cosine(const SurfacePoint<T>& at, bool in_medium, const Vec3<T>& direction) {
@@ -257,7 +281,8 @@ PT_HD inline bool segment_transmittance(const SceneView<T>& scene, const Surface
 // count returned), and each is joined to the camera (light tracing, t = 1), its contribution handed to `splat(x, y,
 // radiance)` for the pixel it lands in. `time` is the camera sample's.
 template <class T, class Splat>
-PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRandom& random, T time, LightVertex<T>* vertices, u32& rays, const Splat& splat) {
+PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRandom& random, T time, Strided<LightVertex<T>> vertices, u32& rays,
+                                     const Splat& splat) {
   const RenderParams<T>& params = scene.params;
   EmissionSample<T> start;
   if (params.max_depth < 2 || !sample_emission(scene, BounceRandom{&random, kLightPathBounce}, time, start)) return 0;
@@ -357,41 +382,39 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
 }
 
 // ---- The camera subpath, joined to the light subpath ----
-// The radiance a camera vertex `at` (on material `material`, reached along `ray` with path throughput `throughput`,
-// `segments` from the camera) receives from the light vertices: each joined by a segment whose visibility is traced.
+// The radiance camera vertex `x` receives from the light vertices: each joined by a segment whose visibility is traced.
 template <class T>
-PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, const SampleRandom& random, const Ray<T>& ray, const SurfacePoint<T>& at,
-                                                bool in_medium, const Material<T>& material, const Color<T>& throughput, T reverse_mis, T connect_mis,
-                                                u32 segments, const LightVertex<T>* vertices, u32 count, u32& rays) {
+PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, const SampleRandom& random, const CameraVertex<T>& x,
+                                                     Strided<const LightVertex<T>> vertices, u32 count, u32& rays) {
   Color<T> sum{};
-  const Vec3<T> toward_camera = -ray.direction;
+  const Material<T>& material = scene.materials[x.at.material];
   for (u32 i = 0; i < count; ++i) {
     const LightVertex<T>& y = vertices[i];
-    if (y.segments + segments + 1 > scene.params.max_depth) break;  // kept in order of length
-    const Vec3<T> offset = y.at.p - at.p;
+    if (y.segments + x.segments + 1 > scene.params.max_depth) break;  // kept in order of length
+    const Vec3<T> offset = y.at.p - x.at.p;
     const T distance2 = length_squared(offset);
     if (!(distance2 > T(0))) continue;
     const Vec3<T> direction = offset / sqrt(distance2);
-    const ScatterValue<T> here = bidirectional_evaluate(scene, material, at, toward_camera, direction);
+    const ScatterValue<T> here = bidirectional_evaluate(scene, material, x.at, x.toward_camera, direction);
     if (!(max_component(here.value) > T(0))) continue;
     const Material<T>& light_material = scene.materials[y.at.material];
     const ScatterValue<T> there = bidirectional_evaluate(scene, light_material, y.at, -direction, y.toward_light);
     if (!(max_component(there.value) > T(0))) continue;
-    const T cosine_here = vertex_cosine(at, in_medium, direction), cosine_there = vertex_cosine(y.at, y.in_medium, direction);
+    const T cosine_here = vertex_cosine(x.at, x.in_medium, direction), cosine_there = vertex_cosine(y.at, y.in_medium, direction);
     const T incoming_cosine = vertex_cosine(y.at, y.in_medium, y.toward_light);
     if (!(cosine_here > T(0) && cosine_there > T(0) && incoming_cosine > T(0))) continue;
     // The densities of sampling each end's direction from the other side, per unit area at the far end.
-    const T reverse_here = bidirectional_evaluate(scene, material, at, direction, toward_camera).pdf;
+    const T reverse_here = bidirectional_evaluate(scene, material, x.at, direction, x.toward_camera).pdf;
     const T forward_there = bidirectional_evaluate(scene, light_material, y.at, y.toward_light, -direction).pdf;
     const T camera_to_light = here.pdf * cosine_there / distance2;
     const T light_to_camera = forward_there * cosine_here / distance2;
     const T light_share = mis_power(camera_to_light) * (y.reverse_mis + y.connect_mis * mis_power(there.pdf));
-    const T camera_share = mis_power(light_to_camera) * (reverse_mis + connect_mis * mis_power(reverse_here));
+    const T camera_share = mis_power(light_to_camera) * (x.reverse_mis + x.connect_mis * mis_power(reverse_here));
     const T weight = T(1) / (light_share + T(1) + camera_share);
     T transmitted;
     ++rays;
-    if (!segment_transmittance(scene, at, y.at.p, y.in_medium ? kNoLight : y.primitive, y.triangle, ray.time, random, segments, transmitted)) continue;
-    sum += throughput * here.value * there.value * y.throughput * (weight * cosine_there * transmitted / (incoming_cosine * distance2));
+    if (!segment_transmittance(scene, x.at, y.at.p, y.in_medium ? kNoLight : y.primitive, y.triangle, x.time, random, x.segments, transmitted)) continue;
+    sum += x.throughput * here.value * there.value * y.throughput * (weight * cosine_there * transmitted / (incoming_cosine * distance2));
   }
   return sum;
 }
@@ -443,17 +466,12 @@ PT_NOINLINE PT_HD Color<T> connect_to_light(const SceneView<T>& scene, const Sam
          (weight * transmittance(optical_depth) / direct);
 }
 
-// One sample of pixel (x, y) by bidirectional path tracing: the light subpath first (its splats handed to `splat`),
-// then the camera subpath joined to it at each vertex. Returns what the sample adds to its own pixel.
-template <class T, class Splat>
-PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scene, u32 x, u32 y, u32 sample, const Splat& splat) {
+// The camera subpath of one sample, from camera ray `ray`: returns what it finds by itself (s = 0: emission and the
+// background met) and by light sampling (s = 1), and hands each vertex where light vertices can be joined to
+// `connect(const CameraVertex<T>&)`, in order along the path.
+template <class T, class Connect>
+PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const SampleRandom& random, Ray<T> ray, u32& rays, const Connect& connect) {
   const RenderParams<T>& params = scene.params;
-  const SampleRandom random = path_random(params, y * params.width + x, sample);
-  Ray<T> ray = camera_ray(scene.camera, params.width, params.height, x, y, random);
-  u32 rays = 0;
-  LightVertexStore<T> store;
-  LightVertex<T>* const vertices = store.vertices();
-  const u32 count = trace_light_subpath(scene, random, ray.time, vertices, rays, splat);
   const CameraImportance<T> primary = camera_importance(scene.camera, params.width, params.height, ray.origin, ray.direction);
   Color<T> radiance{};
   Color<T> throughput = Color<T>::splat(T(1));
@@ -499,8 +517,7 @@ PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scen
     if (material_samples_lights(material)) {
       if (scene.lights.count > 0)
         radiance += connect_to_light(scene, random, ray, at, in_medium, material, throughput, reverse_mis, connect_mis, bounce, rays);
-      radiance += connect_to_light_vertices(scene, random, ray, at, in_medium, material, throughput, reverse_mis, connect_mis, bounce + 1, vertices,
-                                            count, rays);
+      connect(CameraVertex<T>{at, throughput, -ray.direction, reverse_mis, connect_mis, ray.time, bounce + 1, in_medium});
     }
     Scatter<T> scatter;
     const BounceRandom bounce_random{&random, bounce};
@@ -523,7 +540,44 @@ PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scen
       throughput = throughput / q;
     }
   }
-  return SampleResult<T>{radiance, rays};
+  return radiance;
+}
+
+// The start of a sample of pixel (x, y): its random numbers and camera ray; the light subpath is traced from the ray's time.
+template <class T>
+struct BidirectionalStart {
+  SampleRandom random;
+  Ray<T> ray;
+};
+
+template <class T>
+PT_HD inline BidirectionalStart<T> start_bidirectional_sample(const SceneView<T>& scene, u32 x, u32 y, u32 sample) {
+  const RenderParams<T>& params = scene.params;
+  const SampleRandom random = path_random(params, y * params.width + x, sample);
+  return BidirectionalStart<T>{random, camera_ray(scene.camera, params.width, params.height, x, y, random)};
+}
+
+// What a sample adds to its own pixel: what the camera subpath found by itself and by light sampling, plus the sum of
+// its vertices' connections (added in the order of the vertices along the path, whichever schedule made them).
+template <class T>
+PT_HD inline Color<T> bidirectional_radiance(const Color<T>& direct, const Color<T>& connected) {
+  return direct + connected;
+}
+
+// One sample of pixel (x, y) by bidirectional path tracing in one go: the light subpath first (its splats handed to
+// `splat`), then the camera subpath, each of its vertices joined to the light subpath's as it is reached.
+template <class T, class Splat>
+PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scene, u32 x, u32 y, u32 sample, const Splat& splat) {
+  const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, y, sample);
+  u32 rays = 0;
+  LightVertexStore<T> store;
+  const Strided<LightVertex<T>> vertices{store.vertices(), 1};
+  const u32 count = trace_light_subpath(scene, start.random, start.ray.time, vertices, rays, splat);
+  Color<T> connected{};
+  const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
+    connected += connect_to_light_vertices(scene, start.random, vertex, Strided<const LightVertex<T>>{vertices.first, 1}, count, rays);
+  });
+  return SampleResult<T>{bidirectional_radiance(direct, connected), rays};
 }
 
 // ---- Splats ----
@@ -566,6 +620,102 @@ struct BidirectionalSample {
     FilmPixel sum = pixel;
     add_sample(sum, trace_bidirectional_sample(scene, x, y, sample, splats), sample);
     pixel = sum;
+  }
+};
+
+// ---- The staged schedule ----
+// On GPUs one kernel a sample leaves most of a warp idle: each thread waits for the longest pair of subpaths in its warp
+// and then for the longest run of connections. The staged schedule makes the connections a launch of their own, over
+// a band of the image's rows: (1) each pixel traces its light subpath (splats included) and its camera subpath, keeping
+// the vertices of both and what the camera subpath found by itself; (2) one thread per camera vertex joins it to its
+// pixel's light vertices; (3) each pixel adds its sample to the film. The sums are formed as trace_bidirectional_sample
+// forms them, in the same order, so both schedules make the same image bit for bit.
+
+// The connections of one camera vertex, and the rays they traced.
+template <class T>
+struct ConnectionSum {
+  Color<T> radiance;
+  u32 rays;
+};
+
+// The buffers of a band of rows: vertex i of every pixel side by side ([i][pixel], `capacity` pixels a row of slots).
+template <class T>
+struct BidirectionalBand {
+  LightVertex<T>* light_vertices;    // kMaxLightVertices slots at most: (max_depth - 2)
+  CameraVertex<T>* camera_vertices;  // (max_depth - 1) slots
+  ConnectionSum<T>* connections;     // one a camera vertex
+  SampleResult<T>* direct;           // what the camera subpath found by itself, and all the rays traced in stage 1
+  u32* light_counts;
+  u32* camera_counts;
+  u32 capacity;   // pixels a band holds
+  u32 first_row;  // of the band being rendered
+  u32 pixels;     // of the band being rendered (whole rows)
+
+  PT_HD Strided<LightVertex<T>> light_vertices_of(u32 pixel) const { return {light_vertices + pixel, capacity}; }
+  PT_HD CameraVertex<T>& camera_vertex(u32 pixel, u32 i) const { return camera_vertices[static_cast<std::size_t>(i) * capacity + pixel]; }
+  PT_HD ConnectionSum<T>& connection(u32 pixel, u32 i) const { return connections[static_cast<std::size_t>(i) * capacity + pixel]; }
+};
+
+// Stage 1, over the band's pixels (x, row within the band): both subpaths of one sample, vertices kept.
+template <class T>
+struct BidirectionalSubpaths {
+  SceneView<T> scene;
+  BidirectionalBand<T> band;
+  SplatFilm splats;
+  u32 sample;
+  PT_HD void operator()(u32 x, u32 row) const {
+    const u32 pixel = row * scene.params.width + x;
+    const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, band.first_row + row, sample);
+    u32 rays = 0;
+    const u32 count = trace_light_subpath(scene, start.random, start.ray.time, band.light_vertices_of(pixel), rays, splats);
+    u32 cameras = 0;
+    const Color<T> direct =
+        trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) { band.camera_vertex(pixel, cameras++) = vertex; });
+    band.light_counts[pixel] = count;
+    band.camera_counts[pixel] = cameras;
+    band.direct[pixel] = SampleResult<T>{direct, rays};
+  }
+};
+
+// Stage 2, over (camera vertex slot i, pixel) with i major: the pixels' vertex i joined to their light vertices.
+template <class T>
+struct BidirectionalConnect {
+  SceneView<T> scene;
+  BidirectionalBand<T> band;
+  u32 sample;
+  PT_HD void operator()(u32 item) const {
+    const u32 i = item / band.pixels, pixel = item % band.pixels;
+    if (i >= band.camera_counts[pixel]) return;
+    const SampleRandom random = path_random(scene.params, band.first_row * scene.params.width + pixel, sample);
+    u32 rays = 0;
+    const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);
+    const Color<T> sum = connect_to_light_vertices(scene, random, band.camera_vertex(pixel, i), Strided<const LightVertex<T>>{vertices.first, vertices.stride},
+                                                   band.light_counts[pixel], rays);
+    band.connection(pixel, i) = ConnectionSum<T>{sum, rays};
+  }
+};
+
+// Stage 3, over the band's pixels: the sample added to the film (of the whole image), its connections summed in order.
+template <class T>
+struct BidirectionalGather {
+  BidirectionalBand<T> band;
+  FilmPixel* film;
+  u32 width;
+  u32 sample;
+  PT_HD void operator()(u32 pixel) const {
+    SampleResult<T> result = band.direct[pixel];
+    Color<T> connected{};
+    const u32 count = band.camera_counts[pixel];
+    for (u32 i = 0; i < count; ++i) {
+      const ConnectionSum<T>& c = band.connection(pixel, i);
+      connected += c.radiance;
+      result.rays += c.rays;
+    }
+    result.radiance = bidirectional_radiance(result.radiance, connected);
+    FilmPixel& target = film[static_cast<std::size_t>(band.first_row) * width + pixel];
+    FilmPixel sum = target;
+    add_sample(sum, result, sample);
+    target = sum;
   }
 };
 

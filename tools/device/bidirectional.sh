@@ -3,8 +3,10 @@
 # backend. `check`: its tests (the expected image against the path tracer's at 8 times the CPU's samples, images the
 # same whatever the passes); `sanitize`: compute-sanitizer's memcheck and racecheck on a bdpt render; `bench`: time to
 # equal error of bdpt against the default integrator (bench/light_sampling_efficiency.py) on the scenes with
-# caustics and the shipped ones. Logs go to $OUT.
-# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench]   (all three when no argument is given)
+# caustics and the shipped ones; `schedules`: the one-kernel and the staged schedule side by side (`pathtracer bench`
+# medians, in the order one-kernel, staged, staged, one-kernel). Logs go to $OUT.
+# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench] [schedules]   (the first three when no argument
+# is given)
 set -uo pipefail
 export LD_LIBRARY_PATH="$PWD/out/device/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PT_SOURCE_DIR="$PWD" PT_PATHTRACER_BINARY="$PWD/out/device/bin/pathtracer"
@@ -29,6 +31,19 @@ if [[ $steps == *sanitize* ]]; then
     echo "exit $?"
     tail -3 "$OUT/sanitize-$tool.log"
   done
+fi
+
+if [[ $steps == *schedules* ]]; then
+  echo "== bdpt schedules side by side (CUDA, 400x240, 64 spp; median of 3 runs each)"
+  for scene in caustics cornell-glass light-through-gap cornell-box cornell-smoke seed-default book1-final meshes; do
+    line="$scene"
+    for schedule in one-kernel staged staged one-kernel; do
+      seconds=$("$PT" bench "scenes/$scene.json" --backend cuda --integrator bdpt --bdpt-schedule $schedule --width 400 --height 240 --spp 64 \
+        --runs 3 2>&1 | grep -oE "median of [0-9]+: [0-9.]+ s" | awk "{print \$4}")
+      line="$line $schedule=$seconds"
+    done
+    echo "$line"
+  done | tee "$OUT/bdpt-schedules.txt"
 fi
 
 if [[ $steps == *bench* ]]; then
