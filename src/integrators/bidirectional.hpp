@@ -1,7 +1,7 @@
 // The bidirectional integrator on any device, sample after sample: either one launch over the image that traces a
 // light subpath and a camera subpath per pixel and joins them (kernel/bidirectional.hpp, BidirectionalSample), or the
-// staged schedule, three launches over a band of rows at a time (subpaths; connections; gathering), then one that
-// folds that sample's splats into the film. Both make the same image bit for bit.
+// staged schedule, four launches over a band of rows at a time (light subpaths; camera subpaths; connections;
+// gathering); then one that folds that sample's splats into the film. Both make the same image bit for bit.
 #pragma once
 
 #include <algorithm>
@@ -55,7 +55,8 @@ class BidirectionalIntegrator {
           const u32 rows = std::min(band_rows_, height - first_row);
           band_.first_row = first_row;
           band_.pixels = rows * width;
-          device_.launch_image("launching the bidirectional subpaths", width, rows, BidirectionalSubpaths<T>{scene_, band_, splats, s});
+          device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s});
+          device_.launch_image("launching the camera subpaths", width, rows, BidirectionalCameraSubpaths<T>{scene_, band_, s});
           device_.launch("launching the bidirectional connections", band_.pixels * camera_slots_, BidirectionalConnect<T>{scene_, band_, s});
           device_.launch("launching the bidirectional gathering", band_.pixels, BidirectionalGather<T>{band_, film_, width, s});
         }

@@ -626,7 +626,7 @@ struct BidirectionalSample {
 // ---- The staged schedule ----
 // On GPUs one kernel a sample leaves most of a warp idle: each thread waits for the longest pair of subpaths in its warp
 // and then for the longest run of connections. The staged schedule makes the connections a launch of their own, over
-// a band of the image's rows: (1) each pixel traces its light subpath (splats included) and its camera subpath, keeping
+// a band of the image's rows: (1) each pixel traces its light subpath (splats included), then its camera subpath, keeping
 // the vertices of both and what the camera subpath found by itself; (2) one thread per camera vertex joins it to its
 // pixel's light vertices; (3) each pixel adds its sample to the film. The sums are formed as trace_bidirectional_sample
 // forms them, in the same order, so both schedules make the same image bit for bit.
@@ -656,9 +656,10 @@ struct BidirectionalBand {
   PT_HD ConnectionSum<T>& connection(u32 pixel, u32 i) const { return connections[static_cast<std::size_t>(i) * capacity + pixel]; }
 };
 
-// Stage 1, over the band's pixels (x, row within the band): both subpaths of one sample, vertices kept.
+// Stage 1, over the band's pixels (x, row within the band), in two launches, each a kernel of half the size: the light
+// subpath of one sample (its splats made, its vertices kept), then the camera subpath (its vertices kept).
 template <class T>
-struct BidirectionalSubpaths {
+struct BidirectionalLightSubpaths {
   SceneView<T> scene;
   BidirectionalBand<T> band;
   SplatFilm splats;
@@ -667,11 +668,23 @@ struct BidirectionalSubpaths {
     const u32 pixel = row * scene.params.width + x;
     const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, band.first_row + row, sample);
     u32 rays = 0;
-    const u32 count = trace_light_subpath(scene, start.random, start.ray.time, band.light_vertices_of(pixel), rays, splats);
+    band.light_counts[pixel] = trace_light_subpath(scene, start.random, start.ray.time, band.light_vertices_of(pixel), rays, splats);
+    band.direct[pixel] = SampleResult<T>{Color<T>{}, rays};
+  }
+};
+
+template <class T>
+struct BidirectionalCameraSubpaths {
+  SceneView<T> scene;
+  BidirectionalBand<T> band;
+  u32 sample;
+  PT_HD void operator()(u32 x, u32 row) const {
+    const u32 pixel = row * scene.params.width + x;
+    const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, band.first_row + row, sample);
+    u32 rays = band.direct[pixel].rays;  // the light subpath's
     u32 cameras = 0;
     const Color<T> direct =
         trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) { band.camera_vertex(pixel, cameras++) = vertex; });
-    band.light_counts[pixel] = count;
     band.camera_counts[pixel] = cameras;
     band.direct[pixel] = SampleResult<T>{direct, rays};
   }
