@@ -165,7 +165,7 @@ class DeviceBackend final : public RenderBackend<T> {
   }
 
   std::vector<std::pair<std::string, double>> stage_seconds() const override {
-    return wavefront_ ? wavefront_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
+    return wavefront_ ? wavefront_->stage_seconds() : bidirectional_ ? bidirectional_->stage_seconds() : std::vector<std::pair<std::string, double>>{};
   }
 
   u64 saturations() const override { return device_.saturations() - saturations_before_; }

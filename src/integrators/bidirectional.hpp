@@ -5,8 +5,11 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "base/render_settings.hpp"
 #include "integrators/device.hpp"
@@ -45,29 +48,43 @@ class BidirectionalIntegrator {
   // included, each sample's after its own contributions.
   void render(u32 first_sample, u32 sample_count) {
     const u32 width = scene_.params.width, height = scene_.params.height;
-    const typename D::Timer timer = device_.start_timer();
     for (u32 s = first_sample; s < first_sample + sample_count; ++s) {
       const SplatFilm splats{splats_, width};
       if (band_rows_ == 0) {
-        device_.launch_image("launching the bidirectional kernel", width, height, BidirectionalSample<T>{scene_, film_, splats, s});
+        stage(kSamples, [&] { device_.launch_image("launching the bidirectional kernel", width, height, BidirectionalSample<T>{scene_, film_, splats, s}); });
       } else {
         for (u32 first_row = 0; first_row < height; first_row += band_rows_) {
           const u32 rows = std::min(band_rows_, height - first_row);
           band_.first_row = first_row;
           band_.pixels = rows * width;
-          device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s});
-          device_.launch_image("launching the camera subpaths", width, rows, BidirectionalCameraSubpaths<T>{scene_, band_, s});
-          device_.launch("launching the bidirectional connections", band_.pixels * camera_slots_, BidirectionalConnect<T>{scene_, band_, s});
-          device_.launch("launching the bidirectional gathering", band_.pixels, BidirectionalGather<T>{band_, film_, width, s});
+          stage(kLightSubpaths,
+                [&] { device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s}); });
+          stage(kCameraSubpaths,
+                [&] { device_.launch_image("launching the camera subpaths", width, rows, BidirectionalCameraSubpaths<T>{scene_, band_, s}); });
+          stage(kConnections, [&] {
+            device_.launch("launching the bidirectional connections", band_.pixels * camera_slots_, BidirectionalConnect<T>{scene_, band_, s});
+          });
+          stage(kGathering, [&] { device_.launch("launching the bidirectional gathering", band_.pixels, BidirectionalGather<T>{band_, film_, width, s}); });
         }
       }
-      device_.launch("folding the splats", width * height, FoldSplats{film_, splats_});
+      stage(kFolding, [&] { device_.launch("folding the splats", width * height, FoldSplats{film_, splats_}); });
     }
-    device_.stop_timer(timer, &seconds_);
     device_.synchronise("running the bidirectional kernel");
   }
 
-  double seconds() const { return seconds_; }
+  double seconds() const {
+    double total = 0;
+    for (double s : seconds_) total += s;
+    return total;
+  }
+
+  // Seconds spent in each launch of the schedule so far (where the device times them).
+  std::vector<std::pair<std::string, double>> stage_seconds() const {
+    std::vector<std::pair<std::string, double>> out;
+    for (u32 i = 0; i < kStages; ++i)
+      if (i == kFolding || (band_rows_ == 0) == (i == kSamples)) out.emplace_back(kStageNames[i], seconds_[i]);
+    return out;
+  }
 
   // Rows a band of the staged schedule holds (0: one kernel a sample).
   u32 band_rows() const { return band_rows_; }
@@ -98,6 +115,16 @@ class BidirectionalIntegrator {
     return static_cast<E*>(memory_.allocate(count * sizeof(E), "allocating the bidirectional band"));
   }
 
+  enum Stage : u32 { kSamples, kLightSubpaths, kCameraSubpaths, kConnections, kGathering, kFolding, kStages };
+  static constexpr std::array<const char*, kStages> kStageNames{"samples", "light subpaths", "camera subpaths", "connections", "gathering", "splats"};
+
+  template <class Launch>
+  void stage(Stage which, const Launch& launch) {
+    const typename D::Timer timer = device_.start_timer();
+    launch();
+    device_.stop_timer(timer, &seconds_[which]);
+  }
+
   D& device_;
   SceneView<T> scene_;
   FilmPixel* film_;
@@ -105,7 +132,7 @@ class BidirectionalIntegrator {
   u64* splats_ = nullptr;
   BidirectionalBand<T> band_{};
   u32 band_rows_ = 0, camera_slots_ = 0;
-  double seconds_ = 0;
+  std::array<double, kStages> seconds_{};
 };
 
 }  // namespace pt
