@@ -3,6 +3,7 @@
 // this with its device class (compiled by the backend's compiler, since the launches are templates).
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <string>
@@ -69,7 +70,9 @@ class DeviceBackend final : public RenderBackend<T> {
       // A pixel stopped by adaptive sampling would still take other pixels' splats but no samples of its own.
       if (scene.noise_threshold > 0) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
       if constexpr (std::is_floating_point_v<T>)
-        bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(device_, view_, film_, scene.bidirectional_schedule);
+        bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(
+            device_, view_, film_, scene.bidirectional_schedule,
+            std::any_of(scene.light_entries.begin(), scene.light_entries.end(), [](const LightEntry<T>& light) { return light.primitive != kNoLight; }));
       else
         throw BackendError("bdpt renders in float or double (--number-format)");
     } else

@@ -22,17 +22,19 @@ namespace pt {
 inline constexpr std::size_t kGpuBidirectionalBandBytes = std::size_t{2} << 30;
 inline constexpr std::size_t kHostBidirectionalBandBytes = std::size_t{8} << 20;
 
-// Whether the staged schedule runs: as asked, or by default where the device is not the host (BENCHMARKS.md: on a GPU
-// it is the faster, on a CPU one kernel a sample is).
+// Whether the staged schedule runs: as asked, or by default where the device is not the host and some light can start a
+// subpath (BENCHMARKS.md: on a GPU it is the faster, on a CPU one kernel a sample is, and so it is on a GPU where the
+// only light is the background: then there is nothing to connect, and the stages only add their launches).
 template <Device D>
-bool bidirectional_staged(const D& device, BidirectionalSchedule schedule) {
-  return schedule == BidirectionalSchedule::kAuto ? !device.host() : schedule == BidirectionalSchedule::kStaged;
+bool bidirectional_staged(const D& device, BidirectionalSchedule schedule, bool light_subpaths) {
+  return schedule == BidirectionalSchedule::kAuto ? !device.host() && light_subpaths : schedule == BidirectionalSchedule::kStaged;
 }
 
 template <Device D, class T>
 class BidirectionalIntegrator {
  public:
-  BidirectionalIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film, BidirectionalSchedule schedule)
+  // `light_subpaths`: whether any light of the scene can start a light subpath (an emitting shape).
+  BidirectionalIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film, BidirectionalSchedule schedule, bool light_subpaths)
       : device_(device), scene_(scene), film_(film) {
     const RenderParams<T>& params = scene.params;
     if (params.max_depth > kMaxBidirectionalDepth)
@@ -41,7 +43,7 @@ class BidirectionalIntegrator {
     const std::size_t bytes = 3 * sizeof(u64) * static_cast<std::size_t>(params.width) * params.height;
     splats_ = static_cast<u64*>(memory_.allocate(bytes, "allocating the splat sums"));
     device_.clear(splats_, bytes, "clearing the splat sums");
-    if (bidirectional_staged(device_, schedule)) allocate_band(device_.host() ? kHostBidirectionalBandBytes : kGpuBidirectionalBandBytes);
+    if (bidirectional_staged(device_, schedule, light_subpaths)) allocate_band(device_.host() ? kHostBidirectionalBandBytes : kGpuBidirectionalBandBytes);
   }
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film, light tracing's splats

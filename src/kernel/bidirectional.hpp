@@ -682,9 +682,12 @@ struct BidirectionalCameraSubpaths {
     const u32 pixel = row * scene.params.width + x;
     const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, band.first_row + row, sample);
     u32 rays = band.direct[pixel].rays;  // the light subpath's
+    // Without light vertices its vertices join nothing (their connections would add zero): none are kept.
+    const bool joined = band.light_counts[pixel] > 0;
     u32 cameras = 0;
-    const Color<T> direct =
-        trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) { band.camera_vertex(pixel, cameras++) = vertex; });
+    const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
+      if (joined) band.camera_vertex(pixel, cameras++) = vertex;
+    });
     band.camera_counts[pixel] = cameras;
     band.direct[pixel] = SampleResult<T>{direct, rays};
   }

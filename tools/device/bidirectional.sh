@@ -18,7 +18,7 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 
 if [[ $steps == *check* ]]; then
   echo "== tests"
-  timeout 400 out/device/bin/pt_tests --gtest_filter='*Bidirectional*' >"$OUT/bdpt-tests.log" 2>&1
+  timeout 400 out/device/bin/pt_tests --gtest_filter='*Bidirectional*.Cuda*' >"$OUT/bdpt-tests.log" 2>&1
   echo "exit $?"
   grep -E "^\[  (PASSED|FAILED)|worst block|variance|SKIPPED" "$OUT/bdpt-tests.log" | head -60
 fi
@@ -38,11 +38,12 @@ if [[ $steps == *schedules* ]]; then
   for scene in caustics cornell-glass light-through-gap cornell-box cornell-smoke seed-default book1-final meshes; do
     line="$scene"
     for schedule in one-kernel staged staged one-kernel; do
-      seconds=$("$PT" bench "scenes/$scene.json" --backend cuda --integrator bdpt --bdpt-schedule $schedule --width 400 --height 240 --spp 64 \
-        --runs 3 2>&1 | grep -oE "median of [0-9]+: [0-9.]+ s" | awk "{print \$4}")
-      line="$line $schedule=$seconds"
+      summary=$("$PT" bench "scenes/$scene.json" --backend cuda --integrator bdpt --bdpt-schedule $schedule --width 400 --height 240 --spp 64 \
+        --runs 3 2>&1 | tail -1)
+      line="$line $schedule=$(grep -oE "median of [0-9]+: [0-9.]+ s" <<<"$summary" | awk "{print \$4}")"
+      [ $schedule = staged ] && stages=$(grep -oE "stages: .*" <<<"$summary")
     done
-    echo "$line"
+    echo "$line | staged ${stages:-}"
   done | tee "$OUT/bdpt-schedules.txt"
 fi
 
