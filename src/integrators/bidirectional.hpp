@@ -63,9 +63,11 @@ class BidirectionalIntegrator {
                 [&] { device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s}); });
           stage(kCameraSubpaths,
                 [&] { device_.launch_image("launching the camera subpaths", width, rows, BidirectionalCameraSubpaths<T>{scene_, band_, s}); });
-          stage(kConnections, [&] {
-            device_.launch("launching the bidirectional connections", band_.pixels * camera_slots_, BidirectionalConnect<T>{scene_, band_, s});
-          });
+          // The host waits here for the queue's length.
+          u32 queued = 0;
+          device_.copy_to_host(&queued, band_.connect_length, sizeof(u32), "reading the bidirectional connection queue");
+          device_.clear(band_.connect_length, sizeof(u32), "clearing the bidirectional connection queue");
+          stage(kConnections, [&] { device_.launch("launching the bidirectional connections", queued, BidirectionalConnect<T>{scene_, band_, s}); });
           stage(kGathering, [&] { device_.launch("launching the bidirectional gathering", band_.pixels, BidirectionalGather<T>{band_, film_, width, s}); });
         }
       }
@@ -100,7 +102,7 @@ class BidirectionalIntegrator {
     const std::size_t per_pixel = light_slots * sizeof(LightVertex<T>) + camera_slots_ * (sizeof(CameraVertex<T>) + sizeof(ConnectionSum<T>)) +
                                   sizeof(SampleResult<T>) + 2 * sizeof(u32);
     band_rows_ = static_cast<u32>(std::clamp<std::size_t>(budget / (per_pixel * width), 1, height));
-    // Stage 2 launches (camera slots x band pixels) items: keep that within a launch's count.
+    // A camera vertex's place in the band's buffers (slot x capacity + pixel) is queued as a 32-bit number.
     while (band_rows_ > 1 && static_cast<std::size_t>(band_rows_) * width * camera_slots_ > 0xFFFFFFFFull) band_rows_ /= 2;
     const std::size_t capacity = static_cast<std::size_t>(band_rows_) * width;
     band_.capacity = static_cast<u32>(capacity);
@@ -110,6 +112,9 @@ class BidirectionalIntegrator {
     band_.direct = allocate<SampleResult<T>>(capacity);
     band_.light_counts = allocate<u32>(capacity);
     band_.camera_counts = allocate<u32>(capacity);
+    band_.connect_queue = allocate<u32>(capacity * camera_slots_);
+    band_.connect_length = allocate<u32>(1);
+    device_.clear(band_.connect_length, sizeof(u32), "clearing the bidirectional connection queue");
   }
 
   template <class E>

@@ -647,6 +647,8 @@ struct BidirectionalBand {
   SampleResult<T>* direct;           // what the camera subpath found by itself, and all the rays traced in stage 1
   u32* light_counts;
   u32* camera_counts;
+  u32* connect_queue;   // the camera vertices written, each as its place i * capacity + pixel, in no particular order
+  u32* connect_length;  // of the queue
   u32 capacity;   // pixels a band holds
   u32 first_row;  // of the band being rendered
   u32 pixels;     // of the band being rendered (whole rows)
@@ -686,22 +688,26 @@ struct BidirectionalCameraSubpaths {
     const bool joined = band.light_counts[pixel] > 0;
     u32 cameras = 0;
     const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
-      if (joined) band.camera_vertex(pixel, cameras++) = vertex;
+      if (!joined) return;
+      band.camera_vertex(pixel, cameras) = vertex;
+      band.connect_queue[queue_push(band.connect_length)] = cameras * band.capacity + pixel;
+      ++cameras;
     });
     band.camera_counts[pixel] = cameras;
     band.direct[pixel] = SampleResult<T>{direct, rays};
   }
 };
 
-// Stage 2, over (camera vertex slot i, pixel) with i major: the pixels' vertex i joined to their light vertices.
+// Stage 2, over the queue of camera vertices written: each joined to its pixel's light vertices. Where it is in the queue
+// does not matter: its sum goes to the vertex's own place.
 template <class T>
 struct BidirectionalConnect {
   SceneView<T> scene;
   BidirectionalBand<T> band;
   u32 sample;
   PT_HD void operator()(u32 item) const {
-    const u32 i = item / band.pixels, pixel = item % band.pixels;
-    if (i >= band.camera_counts[pixel]) return;
+    const u32 place = band.connect_queue[item];
+    const u32 i = place / band.capacity, pixel = place % band.capacity;
     const SampleRandom random = path_random(scene.params, band.first_row * scene.params.width + pixel, sample);
     u32 rays = 0;
     const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);

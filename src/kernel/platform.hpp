@@ -85,7 +85,7 @@ PT_HD inline u32 queue_push(u32* counter) {
 #if defined(__CUDA_ARCH__)
   const unsigned active = __activemask();
   const unsigned same_queue = __match_any_sync(active, reinterpret_cast<unsigned long long>(counter));
-  const unsigned lane = threadIdx.x & 31u;  // stages run in one-dimensional blocks
+  const unsigned lane = (threadIdx.x + blockDim.x * (threadIdx.y + blockDim.y * threadIdx.z)) & 31u;  // warps follow the linear index
   const int leader = __ffs(same_queue) - 1;
   u32 first = 0;
   if (static_cast<int>(lane) == leader) first = atomicAdd(counter, static_cast<u32>(__popc(same_queue)));
