@@ -627,8 +627,8 @@ struct BidirectionalSample {
 // On GPUs one kernel a sample leaves most of a warp idle: each thread waits for the longest pair of subpaths in its warp
 // and then for the longest run of connections. The staged schedule makes the connections a launch of their own, over
 // a band of the image's rows: (1) each pixel traces its light subpath (splats included), then its camera subpath, keeping
-// the vertices of both and what the camera subpath found by itself; (2) one thread per camera vertex joins it to its
-// pixel's light vertices; (3) each pixel adds its sample to the film. The sums are formed as trace_bidirectional_sample
+// the vertices of both and what the camera subpath found by itself, and queueing its vertices; (2) one thread per
+// queued camera vertex joins it to its pixel's light vertices; (3) each pixel adds its sample to the film. The sums are formed as trace_bidirectional_sample
 // forms them, in the same order, so both schedules make the same image bit for bit.
 
 // The connections of one camera vertex, and the rays they traced.
