@@ -263,6 +263,30 @@ TEST(Bidirectional, SyclStagedScheduleMakesTheOneKernelFilmBitForBit) {
   expect_schedules_make_the_same_film("sycl", 320, 180);
 }
 
+// The command line's --bdpt-schedule reaches the integrator: both schedules write the same file, the staged one runs its
+// launches, and an unknown one is refused.
+TEST(Bidirectional, CommandLineSchedulesWriteTheSameImage) {
+  test::TempDir folder;
+  auto render = [&](const std::string& schedule, const std::string& file) {
+    return test::run_pathtracer("render " + test::quoted(test::scene_path("caustics.json")) + " --quiet --integrator bdpt --bdpt-schedule " + schedule +
+                                    " --spp 2 --width 40 --height 24 -o " + test::quoted(folder / file),
+                                folder);
+  };
+  ASSERT_EQ(render("one-kernel", "one.pfm").exit_code, 0);
+  ASSERT_EQ(render("staged", "staged.pfm").exit_code, 0);
+  EXPECT_EQ(test::read_text_file(folder / "one.pfm"), test::read_text_file(folder / "staged.pfm"));
+  // The schedule asked for is the one run: bench names the launches it timed.
+  const std::string bench = "'" + test::pathtracer_binary() + "' bench " + test::quoted(test::scene_path("caustics.json")) +
+                            " --integrator bdpt --bdpt-schedule staged --spp 1 --width 16 --height 8 --runs 1 > " + test::quoted(folder / "bench.txt");
+  ASSERT_EQ(std::system(bench.c_str()), 0);
+  const std::string summary = test::read_text_file(folder / "bench.txt");
+  EXPECT_NE(summary.find("connections"), std::string::npos) << summary;
+  const test::CommandResult unknown = render("twice", "twice.pfm");
+  EXPECT_NE(unknown.exit_code, 0);
+  EXPECT_NE(unknown.err.find("--bdpt-schedule"), std::string::npos) << unknown.err;
+  EXPECT_FALSE(std::filesystem::exists(folder / "twice.pfm"));
+}
+
 // What bdpt cannot do is refused with one line: bands over several devices (splats cross them), adaptive sampling
 // (a stopped pixel would still take splats), the fixed-point formats, paths longer than its vertex store.
 TEST(Bidirectional, RefusesWhatItCannotDo) {
