@@ -52,6 +52,7 @@ inline const char* light_sampling_name(LightSampling sampling) {
   return sampling == LightSampling::kNone ? "none" : sampling == LightSampling::kNextEvent ? "nee" : "auto";
 }
 
+// The schedule's name as the command line spells it.
 inline const char* bidirectional_schedule_name(BidirectionalSchedule schedule) {
   return schedule == BidirectionalSchedule::kOneKernel ? "one-kernel" : schedule == BidirectionalSchedule::kStaged ? "staged" : "auto";
 }

@@ -90,16 +90,13 @@ class BidirectionalIntegrator {
     return out;
   }
 
-  // Rows a band of the staged schedule holds (0: one kernel a sample).
-  u32 band_rows() const { return band_rows_; }
-
  private:
   // Buffers for as many whole rows as `budget` bytes hold (at least one).
   void allocate_band(std::size_t budget) {
     const u32 width = scene_.params.width, height = scene_.params.height, depth = scene_.params.max_depth;
     const u32 light_slots = std::max(depth, 3u) - 2;
     camera_slots_ = std::max(depth, 2u) - 1;
-    const std::size_t per_pixel = light_slots * sizeof(LightVertex<T>) + camera_slots_ * (sizeof(CameraVertex<T>) + sizeof(ConnectionSum<T>)) +
+    const std::size_t per_pixel = light_slots * sizeof(LightVertex<T>) + camera_slots_ * (sizeof(CameraVertex<T>) + sizeof(ConnectionSum<T>) + sizeof(u32)) +
                                   sizeof(SampleResult<T>) + 2 * sizeof(u32);
     band_rows_ = static_cast<u32>(std::clamp<std::size_t>(budget / (per_pixel * width), 1, height));
     // A camera vertex's place in the band's buffers (slot x capacity + pixel) is queued as a 32-bit number.
@@ -138,7 +135,7 @@ class BidirectionalIntegrator {
   DeviceAllocations<D> memory_{device_};
   u64* splats_ = nullptr;
   BidirectionalBand<T> band_{};
-  u32 band_rows_ = 0, camera_slots_ = 0;
+  u32 band_rows_ = 0, camera_slots_ = 0;  // rows a band holds (0: one kernel a sample); camera vertex slots a pixel
   std::array<double, kStages> seconds_{};
 };
 
