@@ -87,6 +87,8 @@ struct Strided {
   V* first;
   u32 stride;
   PT_HD V& operator[](u32 i) const { return first[static_cast<std::size_t>(i) * stride]; }
+  // The same vertices, read only (what the connections take).
+  PT_HD operator Strided<const V>() const { return {first, stride}; }
 };
 
 // A camera subpath vertex where connections to light vertices are made (a material light sampling serves), with what
@@ -383,9 +385,10 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
 
 // ---- The camera subpath, joined to the light subpath ----
 // The radiance camera vertex `x` receives from the light vertices: each joined by a segment whose visibility is traced.
+// (`vertices` takes the writable views too, by conversion: T is deduced from the other arguments.)
 template <class T>
 PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, const SampleRandom& random, const CameraVertex<T>& x,
-                                                     Strided<const LightVertex<T>> vertices, u32 count, u32& rays) {
+                                                     std::type_identity_t<Strided<const LightVertex<T>>> vertices, u32 count, u32& rays) {
   Color<T> sum{};
   const Material<T>& material = scene.materials[x.at.material];
   for (u32 i = 0; i < count; ++i) {
@@ -575,7 +578,7 @@ PT_HD inline SampleResult<T> trace_bidirectional_sample(const SceneView<T>& scen
   const u32 count = trace_light_subpath(scene, start.random, start.ray.time, vertices, rays, splat);
   Color<T> connected{};
   const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
-    connected += connect_to_light_vertices(scene, start.random, vertex, Strided<const LightVertex<T>>{vertices.first, 1}, count, rays);
+    connected += connect_to_light_vertices(scene, start.random, vertex, vertices, count, rays);
   });
   return SampleResult<T>{bidirectional_radiance(direct, connected), rays};
 }
@@ -626,10 +629,11 @@ struct BidirectionalSample {
 // ---- The staged schedule ----
 // On GPUs one kernel a sample leaves most of a warp idle: each thread waits for the longest pair of subpaths in its warp
 // and then for the longest run of connections. The staged schedule makes the connections a launch of their own, over
-// a band of the image's rows: (1) each pixel traces its light subpath (splats included), then its camera subpath, keeping
-// the vertices of both and what the camera subpath found by itself, and queueing its vertices; (2) one thread per
-// queued camera vertex joins it to its pixel's light vertices; (3) each pixel adds its sample to the film. The sums are formed as trace_bidirectional_sample
-// forms them, in the same order, so both schedules make the same image bit for bit.
+// a band of the image's rows: (1) each pixel traces its light subpath (splats included), then, in a second launch, its
+// camera subpath, keeping the vertices of both and what the camera subpath found by itself, and queueing its camera
+// vertices; (2) one thread per queued camera vertex joins it to its pixel's light vertices; (3) each pixel adds its
+// sample to the film. The sums are formed as trace_bidirectional_sample forms them, in the same order, so both
+// schedules make the same image bit for bit.
 
 // The connections of one camera vertex, and the rays they traced.
 template <class T>
@@ -710,9 +714,7 @@ struct BidirectionalConnect {
     const u32 i = place / band.capacity, pixel = place % band.capacity;
     const SampleRandom random = path_random(scene.params, band.first_row * scene.params.width + pixel, sample);
     u32 rays = 0;
-    const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);
-    const Color<T> sum = connect_to_light_vertices(scene, random, band.camera_vertex(pixel, i), Strided<const LightVertex<T>>{vertices.first, vertices.stride},
-                                                   band.light_counts[pixel], rays);
+    const Color<T> sum = connect_to_light_vertices(scene, random, band.camera_vertex(pixel, i), band.light_vertices_of(pixel), band.light_counts[pixel], rays);
     band.connection(pixel, i) = ConnectionSum<T>{sum, rays};
   }
 };
