@@ -14,7 +14,6 @@
 #include "backends/registry.hpp"
 #include "film/film.hpp"
 #include "kernel/bidirectional.hpp"
-#include "kernel/fixed_point.hpp"
 #include "scene_cases.hpp"
 #include "test_support.hpp"
 #if PT_HAVE_CUDA
@@ -288,7 +287,7 @@ TEST(Bidirectional, CommandLineSchedulesWriteTheSameImage) {
 }
 
 // What bdpt cannot do is refused with one line: bands over several devices (splats cross them), adaptive sampling
-// (a stopped pixel would still take splats), the fixed-point formats, paths longer than its vertex store.
+// (a stopped pixel would still take splats), paths longer than its vertex store.
 TEST(Bidirectional, RefusesWhatItCannotDo) {
   const SceneDescription scene = load_scene_file(test::scene_path("tiny.json"));
   RenderSettings settings = scene.render;
@@ -303,8 +302,6 @@ TEST(Bidirectional, RefusesWhatItCannotDo) {
   RenderSettings deep = settings;
   deep.max_depth = kMaxBidirectionalDepth + 1;
   EXPECT_THROW(backend->upload(flatten_scene<float>(scene, deep)), BackendError);
-  const std::unique_ptr<RenderBackend<Fixed<16, 16>>> fixed = make_cpu_backend<Fixed<16, 16>>(1, Integrator::kBidirectional);
-  EXPECT_THROW(fixed->upload(flatten_scene<Fixed<16, 16>>(scene, settings)), BackendError);
 
   test::TempDir folder;
   const test::CommandResult result = test::run_pathtracer(

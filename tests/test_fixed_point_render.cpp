@@ -104,5 +104,29 @@ TEST(FixedPointRender, SaturationsAreTheSameForBothIntegratorsAndCountedPerRende
   EXPECT_EQ(render_scene(*backend, flat).stats.saturations, megakernel);
 }
 
+// Bidirectional path tracing renders in fixed point with its weights and its light subpaths' throughput formed in a
+// unit of length in which the scene measures about one (kernel/bidirectional.hpp, "The weights' unit of length"). In
+// the scene's own unit the Cornell box's light area, squared, lies beyond Q32.32's range (7.7 dB against double,
+// measured), and the camera's image area was a square beyond it too (28 dB). With both in the unit (docs/numerics.md,
+// 64x48, 16 spp): Q32.32 92 dB on the Cornell box, 134 dB on the caustics scene; Q16.16 36 dB on the Cornell box,
+// counting its saturations.
+TEST(FixedPointRender, BidirectionalFollowsDoubleInQ32_32) {
+  for (const char* name : {"cornell-box", "caustics"}) {
+    const SceneDescription scene = load_scene_file(std::string(PT_SOURCE_DIR "/scenes/") + name + ".json");
+    RenderSettings settings = scene.render;
+    settings.width = 48;
+    settings.height = 36;
+    settings.samples_per_pixel = 8;
+    settings.max_depth = 8;
+    const RenderResult reference = render<double>(scene, settings, Integrator::kBidirectional);
+    EXPECT_GE(psnr(render<Fixed<32, 32>>(scene, settings, Integrator::kBidirectional).image, reference.image), 70.0) << name;
+    if (std::string(name) == "cornell-box") {
+      const RenderResult narrow = render<Fixed<16, 16>>(scene, settings, Integrator::kBidirectional);
+      EXPECT_GE(psnr(narrow.image, reference.image), 30.0) << name;
+      EXPECT_GT(narrow.stats.saturations, 0u);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace pt

@@ -702,6 +702,7 @@ int main(int argc, char** argv) {
   numerics->add_option("--threads", numerics_options.threads, "CPU threads (0: all cores)")->check(CLI::Range(0u, 4096u));
   numerics->add_option("--formats", numerics_options.formats, "Formats to compare (default: all built in)")
       ->check(CLI::IsMember(number_format_names()));
+  numerics->add_flag("--bdpt", numerics_options.bidirectional, "Render with bidirectional path tracing instead of the path tracer");
   numerics->add_flag("--trust-model-paths", numerics_options.trust_model_paths, "Let model files name files outside their own folder");
 
   CLI::App* devices = app.add_subcommand("devices", "List the devices of every backend built in");

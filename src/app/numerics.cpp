@@ -60,10 +60,11 @@ void compare(const LinearImage& image, const LinearImage& reference, Row& row) {
 }
 
 template <class T>
-RenderResult render_in(const SceneDescription& scene, const RenderSettings& settings, double scale, unsigned threads, double& used_scale) {
+RenderResult render_in(const SceneDescription& scene, const RenderSettings& settings, Integrator integrator, double scale, unsigned threads,
+                       double& used_scale) {
   const FlatScene<T> flat = flatten_scene<T>(scene, settings, scale);
   used_scale = flat.scale;
-  auto backend = make_backend<T>("cpu", threads, 0);
+  auto backend = make_backend<T>("cpu", threads, 0, integrator);
   return render_scene(*backend, flat);
 }
 
@@ -154,6 +155,7 @@ int run_numerics(const NumericsOptions& options) {
   settings.samples_per_pixel = options.spp;
   if (options.depth) settings.max_depth = *options.depth;
   if (options.seed) settings.seed = *options.seed;
+  const Integrator integrator = options.bidirectional ? Integrator::kBidirectional : Integrator::kMegakernel;
   const std::vector<std::string> formats = options.formats.empty() ? number_format_names() : options.formats;
 
   // Double renders of the scene at each scale a format needed: the reference for every format at that scale.
@@ -162,7 +164,7 @@ int run_numerics(const NumericsOptions& options) {
     auto found = references.find(scale);
     if (found != references.end()) return found->second;
     double used = 0;
-    return references.emplace(scale, render_in<double>(scene, settings, scale, options.threads, used).image).first->second;
+    return references.emplace(scale, render_in<double>(scene, settings, integrator, scale, options.threads, used).image).first->second;
   };
 
   std::vector<Row> rows;
@@ -172,7 +174,7 @@ int run_numerics(const NumericsOptions& options) {
     with_number_format(name, [&]<class T>() {
       row.bits = number_format_bits<T>();
       try {
-        const RenderResult result = render_in<T>(scene, settings, 0, options.threads, row.scale);
+        const RenderResult result = render_in<T>(scene, settings, integrator, 0, options.threads, row.scale);
         row.rendered = true;
         row.image = result.image;
         row.seconds = result.stats.seconds;

@@ -17,6 +17,7 @@ struct NumericsOptions {
   unsigned threads = 0;
   std::vector<std::string> formats;  // empty: every format built in
   bool trust_model_paths = false;    // model files may name files outside their folder
+  bool bidirectional = false;        // bidirectional path tracing instead of the path tracer
 };
 
 // Writes numerics.csv, error-vs-bits.svg, one PNG per format and side-by-side.png to the output folder, prints

@@ -66,15 +66,11 @@ class DeviceBackend final : public RenderBackend<T> {
     if (integrator_ == Integrator::kWavefront) {
       wavefront_ = std::make_unique<WavefrontIntegrator<D, T>>(device_, view_, film_);
     } else if (integrator_ == Integrator::kBidirectional) {
-      // Light subpaths carry the light's power over its area, beyond the fixed-point formats' range.
       // A pixel stopped by adaptive sampling would still take other pixels' splats but no samples of its own.
       if (scene.noise_threshold > 0) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
-      if constexpr (std::is_floating_point_v<T>)
-        bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(
-            device_, view_, film_, scene.bidirectional_schedule,
-            std::any_of(scene.light_entries.begin(), scene.light_entries.end(), [](const LightEntry<T>& light) { return light.primitive != kNoLight; }));
-      else
-        throw BackendError("bdpt renders in float or double (--number-format)");
+      bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(
+          device_, view_, film_, scene.bidirectional_schedule,
+          std::any_of(scene.light_entries.begin(), scene.light_entries.end(), [](const LightEntry<T>& light) { return light.primitive != kNoLight; }));
     } else
       megakernel_ = std::make_unique<MegakernelIntegrator<D, T>>(device_, view_, film_);
     device_.synchronise("copying the scene");

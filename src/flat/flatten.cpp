@@ -624,6 +624,21 @@ void build_scene_trees(FlatScene<T>& flat, std::vector<Box<S>>& bounds, const st
 }  // namespace
 
 // `released`, where the caller gives it, is `scene` itself: its parts are let go as they are converted.
+// Bidirectional path tracing's unit of length in fixed point (kernel/bidirectional.hpp, "The weights' unit of length"):
+// the power of two in which the scene's extent is at most 1, kept within 2^(F/2) of 1 (F fraction bits) so that the unit
+// and lengths in it keep half the format's fraction bits.
+template <class T>
+T bidirectional_unit(double extent) {
+  if constexpr (is_fixed_v<T>) {
+    const int bound = T::kFractionBits / 2;
+    const int exponent = extent > 0 && std::isfinite(extent) ? static_cast<int>(std::floor(std::log2(1 / extent))) : 0;
+    return T(std::exp2(std::clamp(exponent, -bound, bound)));
+  } else {
+    (void)extent;
+    return T(1);
+  }
+}
+
 template <class T>
 FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription* released, const RenderSettings& settings, double scale,
                                  bool binary_tree) {
@@ -712,11 +727,9 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
                                   fit(scene.background.zenith, Quantity::kColour, scene.written.zenith),
                                   {}};
   if (scene.environment) flatten_environment(fit, scene, flat);
-  {
-    // Scaling by a power of two scales the bounds' largest coordinate exactly.
-    const double extent = scene_extent(bounds_extent * scale, make_camera<double>(camera, settings.width, settings.height));
-    for (u32 i = 0; i < textures.size(); ++i) check_texture_scale(fit, textures[i], fit.texture(i), extent);
-  }
+  // Scaling by a power of two scales the bounds' largest coordinate exactly.
+  const double extent = scene_extent(bounds_extent * scale, make_camera<double>(camera, settings.width, settings.height));
+  for (u32 i = 0; i < textures.size(); ++i) check_texture_scale(fit, textures[i], fit.texture(i), extent);
   // A description given to let go of loses each part once it is converted, and nothing after names it: a scene of a
   // million objects with their own materials holds about 250 bytes of them each, and the primitives in double and
   // the BVH's build that follow would otherwise find them still held.
@@ -851,6 +864,7 @@ FlatScene<T> flatten_description(const SceneDescription& scene, SceneDescription
   flat.params = RenderParams<T>{settings.width,    settings.height,    settings.max_depth,
                                 settings.seed,     settings.roulette_depth, next_event ? 1u : 0u,
                                 settings.sampler,  T(settings.light_threshold)};
+  flat.params.bidirectional_unit = bidirectional_unit<T>(extent);
   return flat;
 }
 

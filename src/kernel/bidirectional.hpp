@@ -34,6 +34,55 @@ PT_HD inline T mis_power(T x) {
   return x * x;
 }
 
+// mis_power(x) y, formed in fixed point as x (x y): a ratio x whose square lies beyond the format's range (a vertex near
+// the camera, a light sample of small density) can still meet a running quantity y that brings the product back.
+template <class T>
+PT_HD inline T mis_power_times(T x, T y) {
+  if constexpr (!std::is_floating_point_v<T>)
+    return x * (x * y);
+  else
+    return mis_power(x) * y;
+}
+
+// ---- The weights' unit of length ----
+// The weights' running quantities (d_VCM and d_VC below) are squared areas, and a light subpath's throughput carries
+// the light's area: floating point holds them at any scene's size, fixed point does not (the Cornell box's light has
+// an area of 13,650, the square of that is far beyond Q32.32's range). In fixed point bidirectional path tracing forms
+// them in a unit of length of its own, RenderParams::bidirectional_unit, a power of two chosen when flattening so that
+// the scene measures about one unit across: distances are multiplied by it before they are squared and densities per
+// area are formed from lengths in it. Every contribution is a ratio in which the unit cancels. The geometry keeps its own
+// scale (shrinking it instead costs the intersection tests their precision). Floating point keeps its arithmetic.
+template <class T>
+PT_HD inline T to_unit(const SceneView<T>& scene, T length) {
+  if constexpr (!std::is_floating_point_v<T>)
+    return length * scene.params.bidirectional_unit;
+  else
+    return length;
+}
+
+template <class T>
+PT_HD inline Vec3<T> to_unit(const SceneView<T>& scene, const Vec3<T>& v) {
+  if constexpr (!std::is_floating_point_v<T>)
+    return v * scene.params.bidirectional_unit;
+  else
+    return v;
+}
+
+// A vector's squared length in the unit.
+template <class T>
+PT_HD inline T unit_distance_squared(const SceneView<T>& scene, const Vec3<T>& offset) {
+  return length_squared(to_unit(scene, offset));
+}
+
+// The direction of `offset`, whose squared length in the unit is `distance2`.
+template <class T>
+PT_HD inline Vec3<T> unit_direction(const Vec3<T>& offset, T distance2) {
+  if constexpr (!std::is_floating_point_v<T>)
+    return normalize(offset);
+  else
+    return offset / sqrt(distance2);
+}
+
 // The kernel's calls of the BVH walk, the hit description and the material evaluation, each out of line (PT_NOINLINE).
 template <class T>
 PT_NOINLINE PT_HD bool bidirectional_hit(const SceneView<T>& scene, const Ray<T>& ray, const IntersectContext<T>& context, Hit<T>& hit, T t_max) {
@@ -128,45 +177,57 @@ struct CameraImportance {
   u32 x, y;
 };
 
+// Lengths are taken in the weights' unit (the ratios do not depend on it): the image's area is a square of lengths.
 template <class T>
-PT_HD inline CameraImportance<T> camera_importance(const Camera<T>& camera, u32 width, u32 height, const Vec3<T>& lens_point,
-                                                   const Vec3<T>& direction) {
+PT_HD inline CameraImportance<T> camera_importance(const SceneView<T>& scene, const Vec3<T>& lens_point, const Vec3<T>& direction) {
+  const Camera<T>& camera = scene.camera;
+  const u32 width = scene.params.width, height = scene.params.height;
   CameraImportance<T> out{T(0), 0, 0};
-  const Vec3<T> axis = camera.lower_left + constant<T>(0.5) * camera.horizontal + constant<T>(0.5) * camera.vertical - camera.origin;
+  const Vec3<T> lower_left = to_unit(scene, camera.lower_left), horizontal = to_unit(scene, camera.horizontal), vertical = to_unit(scene, camera.vertical);
+  const Vec3<T> axis = lower_left + constant<T>(0.5) * horizontal + constant<T>(0.5) * vertical - to_unit(scene, camera.origin);
   const T focus = length(axis);
   const T cosine = dot(direction, axis) / focus;
   if (!(cosine > T(0))) return out;
-  const Vec3<T> on_plane = lens_point + direction * (focus / cosine) - camera.lower_left;
-  const T s = dot(on_plane, camera.horizontal) / length_squared(camera.horizontal);
-  const T t = dot(on_plane, camera.vertical) / length_squared(camera.vertical);
+  const Vec3<T> on_plane = to_unit(scene, lens_point) + direction * (focus / cosine) - lower_left;
+  const T s = dot(on_plane, horizontal) / length_squared(horizontal);
+  const T t = dot(on_plane, vertical) / length_squared(vertical);
   if (!(s >= T(0) && s < T(1) && t > T(0) && t <= T(1))) return out;
   const u32 column = static_cast<u32>(s * static_cast<T>(width)), row = static_cast<u32>((T(1) - t) * static_cast<T>(height));
   out.x = column < width ? column : width - 1;
   out.y = row < height ? row : height - 1;
-  const T area = length(cross(camera.horizontal, camera.vertical));
+  const T area = length(cross(horizontal, vertical));
   out.density = focus * focus / (cosine * cosine * cosine * area);
   return out;
 }
 
 // ---- Lights as the start of a subpath ----
-// The density with which a light subpath starts at point `at` of the light of `entry` (per unit area, the light's
-// choice included): uniform over the light's area, and for a mesh over its triangles by power.
+// The density with which a light subpath starts at point `at` of the light of `entry` (per area of the weights' unit,
+// the light's choice included): uniform over the light's area, and for a mesh over its triangles by power.
 template <class T>
 PT_HD inline T emission_area_density(const SceneView<T>& scene, u32 entry, const Hit<T>& hit, T time) {
   const LightEntry<T>& light = scene.lights.entries[entry];
   const Primitive<T>& primitive = scene.primitives[light.primitive];
   Vec3<T> center;
   T radius;
-  if (sphere_at(primitive, time, center, radius)) return light.pmf / (constant<T>(4) * pi<T>() * radius * radius);
-  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) return light.pmf / quad_area(*q);
-  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return light.pmf / triangle_area(tri->edge1, tri->edge2);
+  if (sphere_at(primitive, time, center, radius)) {
+    const T r = to_unit(scene, radius);
+    return light.pmf / (constant<T>(4) * pi<T>() * r * r);
+  }
+  if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
+    if constexpr (!std::is_floating_point_v<T>)  // quad_area's two factors, each in the unit
+      return light.pmf / abs(to_unit(scene, q->u_extent) * (to_unit(scene, q->v_extent) / dot(q->normal, cross(q->du, q->dv))));
+    else
+      return light.pmf / quad_area(*q);
+  }
+  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape))
+    return light.pmf / triangle_area(to_unit(scene, tri->edge1), to_unit(scene, tri->edge2));
   if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
     const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];
     const u32 start = light.first_cdf + (hit.triangle - mesh.first_triangle);
     const T share = scene.lights.triangle_cdf[start + 1] - scene.lights.triangle_cdf[start];
     Vec3<T> p[3];
     world_triangle(scene.meshes, *instance, hit.triangle, p);
-    return light.pmf * share / triangle_area(p[1] - p[0], p[2] - p[0]);
+    return light.pmf * share / triangle_area(to_unit(scene, p[1] - p[0]), to_unit(scene, p[2] - p[0]));
   }
   return T(0);
 }
@@ -313,7 +374,8 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
                                  start.at);
       reverse_mis = mis_power(direct * start.cosine / (emission_density * cosine));
     } else {
-      reverse_mis *= mis_power(hit.t * hit.t / cosine);
+      const T distance = to_unit(scene, hit.t);
+      reverse_mis *= mis_power(distance * distance / cosine);
     }
     connect_mis /= mis_power(cosine);
     if (!material_samples_lights(material)) {
@@ -338,10 +400,9 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
         const Vec3<T> disk = uniform_in_unit_disk(lens_u, lens_v);
         const Vec3<T> lens = scene.camera.origin + disk.x * scene.camera.lens_u + disk.y * scene.camera.lens_v;
         const Vec3<T> to_lens = lens - at.p;
-        const T distance2 = length_squared(to_lens);
-        const T distance = sqrt(distance2);
-        const Vec3<T> toward_camera = to_lens / distance;
-        const CameraImportance<T> seen = camera_importance(scene.camera, params.width, params.height, lens, -toward_camera);
+        const T distance2 = unit_distance_squared(scene, to_lens);
+        const Vec3<T> toward_camera = unit_direction(to_lens, distance2);
+        const CameraImportance<T> seen = camera_importance(scene, lens, -toward_camera);
         T transmitted;
         if (seen.density > T(0)) {
           const ScatterValue<T> value = bidirectional_evaluate(scene, material, at, toward_camera, toward_light);
@@ -350,7 +411,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
             ++rays;
             if (segment_transmittance(scene, at, lens, kNoLight, 0, time, random, kLightPathBounce + segments, transmitted)) {
               const T camera_density = seen.density * camera_cosine / distance2;  // per unit area here
-              const T weight = T(1) / (mis_power(camera_density) * (reverse_mis + connect_mis * mis_power(value.pdf)) + T(1));
+              const T weight = T(1) / (mis_power_times(camera_density, reverse_mis + connect_mis * mis_power(value.pdf)) + T(1));
               splat(seen.x, seen.y, throughput * value.value * (weight * camera_density * transmitted / cosine));
             }
           }
@@ -395,9 +456,9 @@ PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, 
     const LightVertex<T>& y = vertices[i];
     if (y.segments + x.segments + 1 > scene.params.max_depth) break;  // kept in order of length
     const Vec3<T> offset = y.at.p - x.at.p;
-    const T distance2 = length_squared(offset);
+    const T distance2 = unit_distance_squared(scene, offset);
     if (!(distance2 > T(0))) continue;
-    const Vec3<T> direction = offset / sqrt(distance2);
+    const Vec3<T> direction = unit_direction(offset, distance2);
     const ScatterValue<T> here = bidirectional_evaluate(scene, material, x.at, x.toward_camera, direction);
     if (!(max_component(here.value) > T(0))) continue;
     const Material<T>& light_material = scene.materials[y.at.material];
@@ -411,8 +472,8 @@ PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, 
     const T forward_there = bidirectional_evaluate(scene, light_material, y.at, y.toward_light, -direction).pdf;
     const T camera_to_light = here.pdf * cosine_there / distance2;
     const T light_to_camera = forward_there * cosine_here / distance2;
-    const T light_share = mis_power(camera_to_light) * (y.reverse_mis + y.connect_mis * mis_power(there.pdf));
-    const T camera_share = mis_power(light_to_camera) * (x.reverse_mis + x.connect_mis * mis_power(reverse_here));
+    const T light_share = mis_power_times(camera_to_light, y.reverse_mis + y.connect_mis * mis_power(there.pdf));
+    const T camera_share = mis_power_times(light_to_camera, x.reverse_mis + x.connect_mis * mis_power(reverse_here));
     const T weight = T(1) / (light_share + T(1) + camera_share);
     T transmitted;
     ++rays;
@@ -463,7 +524,8 @@ PT_NOINLINE PT_HD Color<T> connect_to_light(const SceneView<T>& scene, const Sam
   const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(light_cosine);
   const T reverse_here = bidirectional_evaluate(scene, material, at, light.direction, toward_camera).pdf;
   const T scatter_share = mis_power(value.pdf / direct);
-  const T light_share = light_cosine > T(0) ? mis_power(emission * cosine_here / (direct * light_cosine)) * (reverse_mis + connect_mis * mis_power(reverse_here)) : T(0);
+  const T light_share =
+      light_cosine > T(0) ? mis_power_times(emission * cosine_here / (direct * light_cosine), reverse_mis + connect_mis * mis_power(reverse_here)) : T(0);
   const T weight = T(1) / (scatter_share + T(1) + light_share);
   return throughput * value.value * material_emitted(light_material, on_light, scene.textures, scene.texture_data) *
          (weight * transmittance(optical_depth) / direct);
@@ -475,7 +537,7 @@ PT_NOINLINE PT_HD Color<T> connect_to_light(const SceneView<T>& scene, const Sam
 template <class T, class Connect>
 PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const SampleRandom& random, Ray<T> ray, u32& rays, const Connect& connect) {
   const RenderParams<T>& params = scene.params;
-  const CameraImportance<T> primary = camera_importance(scene.camera, params.width, params.height, ray.origin, ray.direction);
+  const CameraImportance<T> primary = camera_importance(scene, ray.origin, ray.direction);
   Color<T> radiance{};
   Color<T> throughput = Color<T>::splat(T(1));
   T reverse_mis = primary.density > T(0) ? mis_power(T(1) / primary.density) : T(0);
@@ -497,7 +559,8 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     const SurfacePoint<T> at = bidirectional_describe(scene, ray, hit, material, true);
     const bool in_medium = hit_in_medium(scene, hit);
     const T cosine = vertex_cosine(at, in_medium, ray.direction);
-    reverse_mis *= mis_power(hit.t * hit.t);
+    const T distance = to_unit(scene, hit.t);
+    reverse_mis *= mis_power(distance * distance);
     if (cosine > T(0)) {
       reverse_mis /= mis_power(cosine);
       connect_mis /= mis_power(cosine);
@@ -510,9 +573,9 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
       const u32 entry = scene.lights.primitive_light[hit.primitive];
       if (bounce > 0 && entry != kNoLight) {
         const Ray<T> from_previous{ray.origin, ray.direction, ray.time};
-        const T direct = light_pdf(scene, entry, from_previous, hit, at) * cosine / (hit.t * hit.t);
+        const T direct = light_pdf(scene, entry, from_previous, hit, at) * cosine / (distance * distance);
         const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(cosine);
-        weight = T(1) / (T(1) + mis_power(direct) * reverse_mis + mis_power(emission) * connect_mis);
+        weight = T(1) / (T(1) + mis_power_times(direct, reverse_mis) + mis_power_times(emission, connect_mis));
       }
       radiance += throughput * emitted * weight;
     }

@@ -18,6 +18,9 @@ struct RenderParams {
   u32 next_event;       // 1: next-event estimation with multiple importance sampling (kernel/lights.hpp); 0: none
   SamplerKind sampler;  // how each pixel's samples are placed (kernel/random.hpp)
   T light_threshold;    // shadow rays that could add less are traced by chance (kernel/integrator.hpp); 0: all
+  // Bidirectional path tracing's unit of length in fixed point (a power of two; kernel/bidirectional.hpp, "The
+  // weights' unit of length"); 1 in floating point.
+  T bidirectional_unit = T(1);
 };
 
 // ---- Lights, for next-event estimation ----
