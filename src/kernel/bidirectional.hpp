@@ -49,9 +49,10 @@ PT_HD inline T mis_power_times(T x, T y) {
 // the light's area: floating point holds them at any scene's size, fixed point does not (the Cornell box's light has
 // an area of 13,650, the square of that is far beyond Q32.32's range). In fixed point bidirectional path tracing forms
 // them in a unit of length of its own, RenderParams::bidirectional_unit, a power of two chosen when flattening so that
-// the scene measures about one unit across: distances are multiplied by it before they are squared and densities per
-// area are formed from lengths in it. Every contribution is a ratio in which the unit cancels. The geometry keeps its own
-// scale (shrinking it instead costs the intersection tests their precision). Floating point keeps its arithmetic.
+// the camera stands about one unit from what it looks at: distances are multiplied by it before they are squared and
+// densities per area are formed from lengths in it. Every contribution is a ratio in which the unit cancels. The
+// geometry keeps its own scale (shrinking it instead costs the intersection tests their precision). Floating point
+// keeps its arithmetic.
 template <class T>
 PT_HD inline T to_unit(const SceneView<T>& scene, T length) {
   if constexpr (!std::is_floating_point_v<T>)
@@ -201,8 +202,23 @@ PT_HD inline CameraImportance<T> camera_importance(const SceneView<T>& scene, co
 }
 
 // ---- Lights as the start of a subpath ----
+// A probability over a triangle's area in the weights' unit. Fixed point divides by two lengths in turn, |e1| and |e2| sin
+// of the angle between the edges: the product of two edges of a small light, each a small length in the unit, would
+// keep too few steps.
+template <class T>
+PT_HD inline T per_triangle_area(const SceneView<T>& scene, T probability, const Vec3<T>& edge1, const Vec3<T>& edge2) {
+  if constexpr (!std::is_floating_point_v<T>) {
+    const T first = length(edge1), second = length(edge2);
+    const T sine = length(cross(edge1 / first, edge2 / second));
+    return constant<T>(2) * probability / to_unit(scene, first) / (to_unit(scene, second) * sine);
+  } else {
+    return probability / triangle_area(edge1, edge2);
+  }
+}
+
 // The density with which a light subpath starts at point `at` of the light of `entry` (per area of the weights' unit,
-// the light's choice included): uniform over the light's area, and for a mesh over its triangles by power.
+// the light's choice included): uniform over the light's area, and for a mesh over its triangles by power. Fixed point
+// divides by the area's two lengths in turn (see per_triangle_area).
 template <class T>
 PT_HD inline T emission_area_density(const SceneView<T>& scene, u32 entry, const Hit<T>& hit, T time) {
   const LightEntry<T>& light = scene.lights.entries[entry];
@@ -210,24 +226,25 @@ PT_HD inline T emission_area_density(const SceneView<T>& scene, u32 entry, const
   Vec3<T> center;
   T radius;
   if (sphere_at(primitive, time, center, radius)) {
-    const T r = to_unit(scene, radius);
-    return light.pmf / (constant<T>(4) * pi<T>() * r * r);
+    if constexpr (!std::is_floating_point_v<T>)
+      return light.pmf / (constant<T>(4) * pi<T>() * to_unit(scene, radius)) / to_unit(scene, radius);
+    else
+      return light.pmf / (constant<T>(4) * pi<T>() * radius * radius);
   }
   if (const auto* q = std::get_if<Quad<T>>(&primitive.shape)) {
-    if constexpr (!std::is_floating_point_v<T>)  // quad_area's two factors, each in the unit
-      return light.pmf / abs(to_unit(scene, q->u_extent) * (to_unit(scene, q->v_extent) / dot(q->normal, cross(q->du, q->dv))));
+    if constexpr (!std::is_floating_point_v<T>)  // quad_area's two factors
+      return light.pmf / to_unit(scene, q->u_extent) / abs(to_unit(scene, q->v_extent) / dot(q->normal, cross(q->du, q->dv)));
     else
       return light.pmf / quad_area(*q);
   }
-  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape))
-    return light.pmf / triangle_area(to_unit(scene, tri->edge1), to_unit(scene, tri->edge2));
+  if (const auto* tri = std::get_if<Triangle<T>>(&primitive.shape)) return per_triangle_area(scene, light.pmf, tri->edge1, tri->edge2);
   if (const auto* instance = std::get_if<MeshInstance<T>>(&primitive.shape)) {
     const MeshRecord& mesh = scene.meshes.meshes[instance->mesh];
     const u32 start = light.first_cdf + (hit.triangle - mesh.first_triangle);
     const T share = scene.lights.triangle_cdf[start + 1] - scene.lights.triangle_cdf[start];
     Vec3<T> p[3];
     world_triangle(scene.meshes, *instance, hit.triangle, p);
-    return light.pmf * share / triangle_area(to_unit(scene, p[1] - p[0]), to_unit(scene, p[2] - p[0]));
+    return per_triangle_area(scene, light.pmf * share, p[1] - p[0], p[2] - p[0]);
   }
   return T(0);
 }
