@@ -286,6 +286,23 @@ TEST(Bidirectional, CommandLineSchedulesWriteTheSameImage) {
   EXPECT_FALSE(std::filesystem::exists(folder / "twice.pfm"));
 }
 
+// `numerics --bdpt` measures bidirectional path tracing: its Q32.32 image is the one `render --integrator bdpt` writes in
+// Q32.32 with the same settings, byte for byte (without the flag it is the path tracer's, another image).
+TEST(Bidirectional, NumericsMeasuresTheBidirectionalImage) {
+  test::TempDir folder;
+  const std::string scene = test::quoted(test::scene_path("caustics.json"));
+  const std::string size = " --spp 2 --width 40 --height 24";
+  ASSERT_EQ(test::run_pathtracer("numerics " + scene + " --bdpt --formats q32.32" + size + " -o " + test::quoted(folder / "bdpt"), folder).exit_code, 0);
+  ASSERT_EQ(test::run_pathtracer("numerics " + scene + " --formats q32.32" + size + " -o " + test::quoted(folder / "path"), folder).exit_code, 0);
+  ASSERT_EQ(test::run_pathtracer("render " + scene + " --quiet --integrator bdpt --number-format q32.32" + size + " -o " + test::quoted(folder / "bdpt.png"),
+                                 folder)
+                .exit_code,
+            0);
+  const std::string rendered = test::read_text_file(folder / "bdpt.png");
+  EXPECT_EQ(test::read_text_file(folder / "bdpt" / "q32.32.png"), rendered);
+  EXPECT_NE(test::read_text_file(folder / "path" / "q32.32.png"), rendered);
+}
+
 // What bdpt cannot do is refused with one line: bands over several devices (splats cross them), adaptive sampling
 // (a stopped pixel would still take splats), paths longer than its vertex store.
 TEST(Bidirectional, RefusesWhatItCannotDo) {
