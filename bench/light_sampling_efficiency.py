@@ -9,10 +9,15 @@ another choice's bit for bit, the table says so: their ratio is 1 but for the ti
 over the better of nee and none, the figure the default must keep near 1 (at least 0.95).
 
 With `--option integrator --choices auto,bdpt --best-of auto` it compares integrators instead: bidirectional path
-tracing against the path tracer each device takes by default.
+tracing against the path tracer each device takes by default. A biased estimator (vcm: consistent, its bias shrinking
+as samples are added) is measured by its mean squared error against a reference instead of its variance:
+`--references DIR` takes DIR/<scene>.pfm, a render of many more samples, and the error of each choice is then the mean
+squared difference of its renders from it (the reference's own variance adds to every choice's error alike, so it
+needs far more samples than the renders compared).
 
   bench/light_sampling_efficiency.py PATHTRACER [--scenes a.json,b.json] [--size 400x240] [--spp 64] [--runs 3] [--rounds 3]
                                      [--option light-sampling] [--choices auto,nee,none] [--best-of nee,none] [--seeds 2]
+                                     [--references DIR]
                                      [-- extra options for render and bench, e.g. --backend cuda]
 """
 import argparse
@@ -49,6 +54,15 @@ def variance(paths):
     return total / len(images[0])
 
 
+def squared_error(paths, reference):
+    """The mean squared difference of each image from the reference, averaged over the images."""
+    target = read_pfm(reference)[2]
+    total = 0.0
+    for path in paths:
+        total += sum((x - y) ** 2 for x, y in zip(read_pfm(path)[2], target)) / len(target)
+    return total / len(paths)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("pathtracer")
@@ -62,6 +76,7 @@ def main():
     parser.add_argument("--best-of", default="nee,none", help="the choices whose best efficiency the others are measured against")
     parser.add_argument("--seeds", type=int, default=2,
                         help="independent renders the variance is estimated from (more where rare bright samples make it scatter)")
+    parser.add_argument("--references", help="a folder of <scene>.pfm references: errors against them instead of variances")
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1:] if "--" in argv else []
     args = parser.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
@@ -69,7 +84,8 @@ def main():
     common = ["--width", width, "--height", height, "--spp", str(args.spp)] + extra
     choices, best_of = args.choices.split(","), args.best_of.split(",")
     best_names = ", ".join(best_of)
-    print(f"| scene | {' | '.join(f'{c}: time, variance' for c in choices)} | {' | '.join(f'{c} / best of {best_names}' for c in choices)} |")
+    measure = "squared error" if args.references else "variance"
+    print(f"| scene | {' | '.join(f'{c}: time, {measure}' for c in choices)} | {' | '.join(f'{c} / best of {best_names}' for c in choices)} |")
     print(f"| --- | {' | '.join('---' for _ in choices)} | {' | '.join('---' for _ in choices)} |")
     with tempfile.TemporaryDirectory() as folder:
         for scene in args.scenes.split(","):
@@ -81,7 +97,11 @@ def main():
                     run([args.pathtracer, "render", scene, "--seed", str(seed), f"--{args.option}", choice, "-q", "-o", image] + common)
                     renders.append(image)
                 images[choice] = renders[0]
-                variances[choice] = variance(renders)
+                if args.references:
+                    name = os.path.splitext(os.path.basename(scene))[0]
+                    variances[choice] = squared_error(renders, os.path.join(args.references, name + ".pfm"))
+                else:
+                    variances[choice] = variance(renders)
             # The choices timed in turns, so that a machine's changing load falls on all of them alike.
             times = {choice: [] for choice in choices}
             for _ in range(args.rounds):

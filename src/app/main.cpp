@@ -66,6 +66,7 @@ struct RenderOptions {
   std::optional<double> noise_threshold;      // adaptive sampling; the scene's (off by default) if omitted
   std::optional<double> light_threshold;      // shadow-ray roulette; the scene's (0.01 by default) if omitted
   std::string bdpt_schedule = "auto";         // bidirectional path tracing: one-kernel, staged or auto
+  double merge_radius = 0;                    // vcm: the first pass's merging radius; 0: from the camera (flatten.cpp)
   bool quiet = false;
   bool verbose = false;            // render only: the time of each phase
   std::string checkpoint, resume;  // render only: where the film is saved, and the saved film to go on from
@@ -85,6 +86,7 @@ Integrator integrator_of(const RenderOptions& options) {
   if (options.integrator == "wavefront") return Integrator::kWavefront;
   if (options.integrator == "megakernel") return Integrator::kMegakernel;
   if (options.integrator == "bdpt") return Integrator::kBidirectional;
+  if (options.integrator == "vcm") return Integrator::kVertexMerging;
   return Integrator::kAuto;
 }
 
@@ -118,6 +120,7 @@ RenderSettings effective_settings(const RenderOptions& options, const SceneDescr
   if (options.sampler) overrides.sampler = *options.sampler == "independent" ? SamplerKind::kIndependent : SamplerKind::kSobol;
   RenderSettings settings = apply_overrides(scene, overrides, kCommandLineSpelling);
   settings.bidirectional_schedule = parse_bidirectional_schedule(options.bdpt_schedule).value_or(BidirectionalSchedule::kAuto);
+  settings.merge_radius = options.merge_radius;
   return settings;
 }
 
@@ -623,9 +626,16 @@ int main(int argc, char** argv) {
         ->check(CLI::NonNegativeNumber);
     command
         ->add_option("--integrator", options.integrator,
-                     "megakernel (each path in one go), wavefront (stages over queues), auto (each backend's faster one), or bdpt "
-                     "(bidirectional path tracing: light and camera subpaths joined, for caustics; docs/light-transport.md)")
-        ->check(CLI::IsMember({"auto", "megakernel", "wavefront", "bdpt"}))
+                     "megakernel (each path in one go), wavefront (stages over queues), auto (each backend's faster one), bdpt "
+                     "(bidirectional path tracing: light and camera subpaths joined, for caustics) or vcm (bdpt with vertex merging, "
+                     "for caustics seen through glass or in mirrors; consistent, not unbiased: docs/light-transport.md)")
+        ->check(CLI::IsMember({"auto", "megakernel", "wavefront", "bdpt", "vcm"}))
+        ->capture_default_str();
+    command
+        ->add_option("--merge-radius", options.merge_radius,
+                     "vcm: the radius within which the first pass merges light vertices, in the scene's units; later passes "
+                     "shrink it. 0: the width of a pixel at the distance the camera looks at, at most a 512th of the view's height there")
+        ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     command
         ->add_option("--bdpt-schedule", options.bdpt_schedule,

@@ -65,12 +65,16 @@ class DeviceBackend final : public RenderBackend<T> {
     device_.clear(film_, pixels * sizeof(FilmPixel), "clearing the film");
     if (integrator_ == Integrator::kWavefront) {
       wavefront_ = std::make_unique<WavefrontIntegrator<D, T>>(device_, view_, film_);
-    } else if (integrator_ == Integrator::kBidirectional) {
+    } else if (integrator_ == Integrator::kBidirectional || integrator_ == Integrator::kVertexMerging) {
+      const bool merging = integrator_ == Integrator::kVertexMerging;
       // A pixel stopped by adaptive sampling would still take other pixels' splats but no samples of its own.
-      if (scene.noise_threshold > 0) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
+      if (scene.noise_threshold > 0) throw BackendError(std::string("adaptive sampling (--noise-threshold) is not available with ") + integrator_name(integrator_));
+      // Merging's densities are areas of discs times the number of light subpaths: fixed point has no room for them.
+      if (merging && !std::is_floating_point_v<T>) throw BackendError("vcm renders in float and double only, not in fixed point");
       bidirectional_ = std::make_unique<BidirectionalIntegrator<D, T>>(
           device_, view_, film_, scene.bidirectional_schedule,
-          std::any_of(scene.light_entries.begin(), scene.light_entries.end(), [](const LightEntry<T>& light) { return light.primitive != kNoLight; }));
+          std::any_of(scene.light_entries.begin(), scene.light_entries.end(), [](const LightEntry<T>& light) { return light.primitive != kNoLight; }),
+          merging ? scene.merge_radius : 0.0);
     } else
       megakernel_ = std::make_unique<MegakernelIntegrator<D, T>>(device_, view_, film_);
     device_.synchronise("copying the scene");
@@ -91,7 +95,8 @@ class DeviceBackend final : public RenderBackend<T> {
     if (row_count == 0 || first_row + row_count > view_.params.height || band.size() != static_cast<std::size_t>(width) * row_count)
       throw BackendError("a band of rows outside the image");
     // Light tracing's splats land anywhere in the image, outside a band's rows.
-    if (bidirectional_) throw BackendError("bdpt renders a whole image on one device: not in bands over several devices or processes");
+    if (bidirectional_)
+      throw BackendError(std::string(integrator_name(integrator_)) + " renders a whole image on one device: not in bands over several devices or processes");
     // Host memory: the kernels add to the caller's band where it is. Elsewhere the band goes through the device's
     // film, at its place in the image.
     if (device_.memory_on_host()) {
@@ -139,7 +144,7 @@ class DeviceBackend final : public RenderBackend<T> {
   // On the device: two launches over the pixels and a counter read back, where a copy of the film to the host and
   // back took longer than the samples between two judgements on a GPU.
   std::size_t stop_clean_pixels(u32 width, u32 height, u32 samples_done, double threshold) override {
-    if (bidirectional_) throw BackendError("adaptive sampling (--noise-threshold) is not available with bdpt");
+    if (bidirectional_) throw BackendError(std::string("adaptive sampling (--noise-threshold) is not available with ") + integrator_name(integrator_));
     if (static_cast<std::size_t>(width) * height != film_pixels_) throw BackendError("a film of another size cannot be judged");
     if (!judgement_) judgement_ = static_cast<u32*>(memory_.allocate((film_pixels_ + 1) * sizeof(u32), "allocating adaptive sampling's judgement"));
     u32* taking = judgement_ + film_pixels_;

@@ -38,6 +38,9 @@ struct RenderSettings {
   // (kernel/integrator.hpp, sample_next_event); 0 takes every one. Radiance of 1 is white on the display.
   double light_threshold = 0.01;
   BidirectionalSchedule bidirectional_schedule = BidirectionalSchedule::kAuto;
+  // Vertex merging's first radius in the scene's units (integrator vcm); 0: chosen from the camera and the image's
+  // height (flat/flatten.cpp, default_merge_radius).
+  double merge_radius = 0;
 };
 
 // The largest light threshold taken: more would trace nearly no shadow ray of a white light.

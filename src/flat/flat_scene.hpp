@@ -50,6 +50,7 @@ struct FlatScene {
   u32 samples_per_pixel = 0;
   double noise_threshold = 0;  // adaptive sampling (film/adaptive.hpp); 0: off
   BidirectionalSchedule bidirectional_schedule = BidirectionalSchedule::kAuto;
+  double merge_radius = 0;  // vertex merging's first radius (integrator vcm), in the flat scene's lengths
   u32 bvh_depth = 0;
   double bvh_seconds = 0;  // time flatten_scene spent building the BVH (reported by `render --verbose`)
   double scale = 1;        // every length of the scene was multiplied by this to fit the scalar type (docs/numerics.md)

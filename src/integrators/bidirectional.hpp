@@ -1,12 +1,17 @@
 // The bidirectional integrator on any device, sample after sample: either one launch over the image that traces a
 // light subpath and a camera subpath per pixel and joins them (kernel/bidirectional.hpp, BidirectionalSample), or the
 // staged schedule, four launches over a band of rows at a time (light subpaths; camera subpaths; connections;
-// gathering); then one that folds that sample's splats into the film. Both make the same image bit for bit.
+// gathering); then one that folds that sample's splats into the film. Both make the same image bit for bit. Vertex
+// connection and merging (VCM) is the staged schedule with a grid of each band's light vertices built between the light
+// and the camera subpaths, which the connections' launch also merges with.
 #pragma once
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cmath>
 #include <cstddef>
+#include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
@@ -22,6 +27,26 @@ namespace pt {
 inline constexpr std::size_t kGpuBidirectionalBandBytes = std::size_t{2} << 30;
 inline constexpr std::size_t kHostBidirectionalBandBytes = std::size_t{8} << 20;
 
+// Vertex merging's band is its pool of light subpaths, the same on every device (the image depends on it): as many whole
+// rows as this many bytes of buffers hold.
+inline constexpr std::size_t kMergingBandBytes = std::size_t{256} << 20;
+
+// How fast the merging radius shrinks from pass to pass (Knaus and Zwicker 2011, as in SmallVCM): pass s (from 0) merges
+// within r0 (s + 1)^((alpha - 1) / 2), so that bias and variance both vanish as passes are added.
+inline constexpr double kMergingAlpha = 0.75;
+
+// The merging radius of pass `sample`, from the first pass's.
+inline double merging_radius(double first_radius, u32 sample) {
+  return first_radius * std::pow(static_cast<double>(sample) + 1.0, (kMergingAlpha - 1.0) / 2.0);
+}
+
+// A pass's merging parameters for `light_subpaths` light subpaths merged within `radius`.
+template <class T>
+MergeParams<T> merge_params(double radius, u32 light_subpaths) {
+  const double eta = std::numbers::pi * radius * radius * light_subpaths;
+  return MergeParams<T>{T(radius), T(eta * eta), T(1 / (eta * eta)), T(1 / eta)};
+}
+
 // Whether the staged schedule runs: as asked, or by default where the device is not the host and some light can start a
 // subpath (BENCHMARKS.md: on a GPU it is the faster, on a CPU one kernel a sample is, and so it is on a GPU where the
 // only light is the background: then there is nothing to connect, and the stages only add their launches).
@@ -33,9 +58,11 @@ bool bidirectional_staged(const D& device, BidirectionalSchedule schedule, bool 
 template <Device D, class T>
 class BidirectionalIntegrator {
  public:
-  // `light_subpaths`: whether any light of the scene can start a light subpath (an emitting shape).
-  BidirectionalIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film, BidirectionalSchedule schedule, bool light_subpaths)
-      : device_(device), scene_(scene), film_(film) {
+  // `light_subpaths`: whether any light of the scene can start a light subpath (an emitting shape). `merge_radius`:
+  // the first pass's merging radius (VCM); 0 for bidirectional path tracing.
+  BidirectionalIntegrator(D& device, const SceneView<T>& scene, FilmPixel* film, BidirectionalSchedule schedule, bool light_subpaths,
+                          double merge_radius = 0)
+      : device_(device), scene_(scene), film_(film), merge_radius_(merge_radius) {
     const RenderParams<T>& params = scene.params;
     if (params.max_depth > kMaxBidirectionalDepth)
       throw BackendError("bdpt traces paths of at most " + std::to_string(kMaxBidirectionalDepth) + " bounces; this render asks for " +
@@ -43,7 +70,10 @@ class BidirectionalIntegrator {
     const std::size_t bytes = 3 * sizeof(u64) * static_cast<std::size_t>(params.width) * params.height;
     splats_ = static_cast<u64*>(memory_.allocate(bytes, "allocating the splat sums"));
     device_.clear(splats_, bytes, "clearing the splat sums");
-    if (bidirectional_staged(device_, schedule, light_subpaths)) allocate_band(device_.host() ? kHostBidirectionalBandBytes : kGpuBidirectionalBandBytes);
+    if (merge_radius_ > 0)
+      allocate_band(kMergingBandBytes);
+    else if (bidirectional_staged(device_, schedule, light_subpaths))
+      allocate_band(device_.host() ? kHostBidirectionalBandBytes : kGpuBidirectionalBandBytes);
   }
 
   // Adds samples [first_sample, first_sample + sample_count) of every pixel to the film, light tracing's splats
@@ -59,8 +89,14 @@ class BidirectionalIntegrator {
           const u32 rows = std::min(band_rows_, height - first_row);
           band_.first_row = first_row;
           band_.pixels = rows * width;
+          if (merge_radius_ > 0) {
+            const double radius = merging_radius(merge_radius_, s);
+            scene_.params.merging = merge_params<T>(radius, band_.pixels);
+            band_.grid.cell_size = T(2 * radius);
+          }
           stage(kLightSubpaths,
                 [&] { device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s}); });
+          if (merge_radius_ > 0) stage(kMergeGrid, [&] { build_merge_grid(); });
           stage(kCameraSubpaths,
                 [&] { device_.launch_image("launching the camera subpaths", width, rows, BidirectionalCameraSubpaths<T>{scene_, band_, s}); });
           // The host waits here for the queue's length.
@@ -86,18 +122,38 @@ class BidirectionalIntegrator {
   std::vector<std::pair<std::string, double>> stage_seconds() const {
     std::vector<std::pair<std::string, double>> out;
     for (u32 i = 0; i < kStages; ++i)
-      if (i == kFolding || (band_rows_ == 0) == (i == kSamples)) out.emplace_back(kStageNames[i], seconds_[i]);
+      if (i == kFolding || ((band_rows_ == 0) == (i == kSamples) && (i != kMergeGrid || merge_radius_ > 0))) out.emplace_back(kStageNames[i], seconds_[i]);
     return out;
   }
 
  private:
+  // The grid of the band's light vertices (MergeGridCount and the rest, kernel/bidirectional.hpp): the counts read back
+  // and summed here into each cell's start.
+  void build_merge_grid() {
+    const MergeGrid<T>& grid = band_.grid;
+    device_.clear(grid.cursor, grid.cells * sizeof(u32), "clearing the merging grid");
+    device_.launch("counting the light vertices to merge", band_.pixels, MergeGridCount<T>{band_});
+    device_.copy_to_host(cell_starts_.data(), grid.cursor, grid.cells * sizeof(u32), "reading the merging grid's counts");
+    u32 total = 0;
+    for (u32 c = 0; c < grid.cells; ++c) total += std::exchange(cell_starts_[c], total);
+    cell_starts_[grid.cells] = total;
+    device_.copy_to_device(grid.starts, cell_starts_.data(), (grid.cells + 1) * sizeof(u32), "copying the merging grid's starts");
+    device_.copy_to_device(grid.cursor, cell_starts_.data(), grid.cells * sizeof(u32), "copying the merging grid's starts");
+    device_.launch("placing the light vertices to merge", band_.pixels, MergeGridFill<T>{band_});
+    device_.launch("sorting the merging grid", grid.cells, MergeGridSort{grid.starts, grid.entries});
+  }
+
   // Buffers for as many whole rows as `budget` bytes hold (at least one).
   void allocate_band(std::size_t budget) {
     const u32 width = scene_.params.width, height = scene_.params.height, depth = scene_.params.max_depth;
-    const u32 light_slots = std::max(depth, 3u) - 2;
+    const bool merging = merge_radius_ > 0;
+    // Merging also keeps the vertex a light subpath reaches last: a camera vertex can take it as its own.
+    const u32 light_slots = merging ? std::max(depth, 2u) - 1 : std::max(depth, 3u) - 2;
     camera_slots_ = std::max(depth, 2u) - 1;
+    // Merging: a place for each light vertex in the grid, and about two cells a pixel.
+    const std::size_t grid_per_pixel = merging ? light_slots * sizeof(u32) + 4 * sizeof(u32) : 0;
     const std::size_t per_pixel = light_slots * sizeof(LightVertex<T>) + camera_slots_ * (sizeof(CameraVertex<T>) + sizeof(ConnectionSum<T>) + sizeof(u32)) +
-                                  sizeof(SampleResult<T>) + 2 * sizeof(u32);
+                                  sizeof(SampleResult<T>) + 2 * sizeof(u32) + grid_per_pixel;
     band_rows_ = static_cast<u32>(std::clamp<std::size_t>(budget / (per_pixel * width), 1, height));
     // A camera vertex's place in the band's buffers (slot x capacity + pixel) is queued as a 32-bit number.
     while (band_rows_ > 1 && static_cast<std::size_t>(band_rows_) * width * camera_slots_ > 0xFFFFFFFFull) band_rows_ /= 2;
@@ -112,6 +168,14 @@ class BidirectionalIntegrator {
     band_.connect_queue = allocate<u32>(capacity * camera_slots_);
     band_.connect_length = allocate<u32>(1);
     device_.clear(band_.connect_length, sizeof(u32), "clearing the bidirectional connection queue");
+    if (merging) {
+      MergeGrid<T>& grid = band_.grid;
+      grid.cells = std::bit_ceil(static_cast<u32>(std::max<std::size_t>(capacity * 2, 2)));
+      grid.starts = allocate<u32>(grid.cells + 1);
+      grid.cursor = allocate<u32>(grid.cells);
+      grid.entries = allocate<u32>(capacity * light_slots);
+      cell_starts_.assign(grid.cells + 1, 0);
+    }
   }
 
   template <class E>
@@ -119,8 +183,9 @@ class BidirectionalIntegrator {
     return static_cast<E*>(memory_.allocate(count * sizeof(E), "allocating the bidirectional band"));
   }
 
-  enum Stage : u32 { kSamples, kLightSubpaths, kCameraSubpaths, kConnections, kGathering, kFolding, kStages };
-  static constexpr std::array<const char*, kStages> kStageNames{"samples", "light subpaths", "camera subpaths", "connections", "gathering", "splats"};
+  enum Stage : u32 { kSamples, kLightSubpaths, kMergeGrid, kCameraSubpaths, kConnections, kGathering, kFolding, kStages };
+  static constexpr std::array<const char*, kStages> kStageNames{"samples",     "light subpaths", "merging grid", "camera subpaths",
+                                                                "connections", "gathering",      "splats"};
 
   template <class Launch>
   void stage(Stage which, const Launch& launch) {
@@ -136,6 +201,8 @@ class BidirectionalIntegrator {
   u64* splats_ = nullptr;
   BidirectionalBand<T> band_{};
   u32 band_rows_ = 0, camera_slots_ = 0;  // rows a band holds (0: one kernel a sample); camera vertex slots a pixel
+  double merge_radius_ = 0;                // the first pass's merging radius; 0: no merging
+  std::vector<u32> cell_starts_;           // the merging grid's counts and starts, on the host
   std::array<double, kStages> seconds_{};
 };
 

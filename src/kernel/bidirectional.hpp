@@ -106,13 +106,14 @@ PT_NOINLINE PT_HD ScatterValue<T> bidirectional_evaluate(const SceneView<T>& sce
 // A light subpath vertex where a connection can be made (a material light sampling serves: diffuse, glossy, a medium).
 // `throughput` is the light's emission times the subpath's scattering over its densities, up to the vertex (the cosine
 // at the vertex towards the previous one left out, as the path tracer's throughput leaves it out);
-// `reverse_mis` and `connect_mis` are the running quantities of the weights (d_VCM and d_VC of the report).
+// `reverse_mis`, `connect_mis` and `merge_mis` are the running quantities of the weights (d_VCM, d_VC and d_VM of the
+// report; merge_mis only in a merging pass).
 template <class T>
 struct LightVertex {
   SurfacePoint<T> at;
   Color<T> throughput;
   Vec3<T> toward_light;  // unit, back along the subpath
-  T reverse_mis, connect_mis;
+  T reverse_mis, connect_mis, merge_mis;
   u32 primitive, triangle;
   u32 segments;  // of the light subpath up to here
   bool in_medium;
@@ -149,7 +150,7 @@ struct CameraVertex {
   SurfacePoint<T> at;
   Color<T> throughput;
   Vec3<T> toward_camera;  // unit, back along the subpath
-  T reverse_mis, connect_mis;
+  T reverse_mis, connect_mis, merge_mis;
   T time;
   u32 segments;  // of the camera subpath up to here
   bool in_medium;
@@ -165,6 +166,30 @@ PT_HD inline T vertex_cosine(const SurfacePoint<T>& at, bool in_medium, const Ve
 template <class T>
 PT_HD inline bool hit_in_medium(const SceneView<T>& scene, const Hit<T>& hit) {
   return std::holds_alternative<ConstantMedium<T>>(scene.primitives[hit.primitive].shape);
+}
+
+// ---- Vertex merging's place in the weights ----
+// In a merging pass (RenderParams::merging) every surface vertex light sampling serves is also where a camera subpath
+// can take a light subpath's vertex nearby as its own: one more strategy there, whose density relative to joining at
+// that vertex is eta (MergeParams). Vertices in a medium are not merged (their densities are per volume), so merging
+// has no share there. Outside a merging pass the shares are zero and the weights are bidirectional path tracing's,
+// operation for operation (adding a zero share changes no value).
+template <class T>
+PT_HD inline bool merging(const SceneView<T>& scene) {
+  return scene.params.merging.radius > T(0);
+}
+
+template <class T>
+PT_HD inline T merge_share_at(const SceneView<T>& scene, bool in_medium) {
+  return in_medium ? T(0) : scene.params.merging.merge_share;
+}
+
+// merge_mis after scattering from a vertex (with reverse_mis and connect_mis not yet moved on): the strategies up to
+// it counted per merging, `out_share` the power of the new direction's cosine over its density and `reverse` that of
+// the reverse direction's density.
+template <class T>
+PT_HD inline T merge_mis_after_scattering(const SceneView<T>& scene, bool in_medium, T out_share, T merge_mis, T reverse, T reverse_mis) {
+  return out_share * (merge_mis * reverse + reverse_mis * scene.params.merging.connect_share + (in_medium ? T(0) : T(1)));
 }
 
 // ---- The camera seen from the scene ----
@@ -371,6 +396,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
   const T emission_density = start.area_density * start.direction_density;
   T connect_mis = mis_power(start.cosine / emission_density);
   T reverse_mis = T(0);
+  T merge_mis = merging(scene) ? connect_mis * scene.params.merging.connect_share : T(0);
   Ray<T> ray = spawn_ray(start.at, start.direction, time);
   u32 count = 0;
   for (u32 segments = 1; segments < params.max_depth; ++segments) {
@@ -395,6 +421,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
       reverse_mis *= mis_power(distance * distance / cosine);
     }
     connect_mis /= mis_power(cosine);
+    if (merging(scene)) merge_mis /= mis_power(cosine);
     if (!material_samples_lights(material)) {
       // Mirrors, glass and fuzzy metal: no connection here; the strategies ending here have no density.
       Scatter<T> scatter;
@@ -407,6 +434,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
       throughput *= scatter.attenuation * (shading_in * out_cosine / (shading_out * cosine));
       reverse_mis = T(0);
       connect_mis *= mis_power(out_cosine);
+      if (merging(scene)) merge_mis *= mis_power(out_cosine);
       ray = scatter.ray;
     } else {
       // Light tracing: the vertex seen through a point of the lens.
@@ -428,15 +456,17 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
             ++rays;
             if (segment_transmittance(scene, at, lens, kNoLight, 0, time, random, kLightPathBounce + segments, transmitted)) {
               const T camera_density = seen.density * camera_cosine / distance2;  // per unit area here
-              const T weight = T(1) / (mis_power_times(camera_density, reverse_mis + connect_mis * mis_power(value.pdf)) + T(1));
+              const T weight =
+                  T(1) / (mis_power_times(camera_density, merge_share_at(scene, in_medium) + reverse_mis + connect_mis * mis_power(value.pdf)) + T(1));
               splat(seen.x, seen.y, throughput * value.value * (weight * camera_density * transmitted / cosine));
             }
           }
         }
       }
-      // Kept where a camera vertex other than the camera can still join it.
+      // Kept where a camera vertex other than the camera can still join it (or, merging, take it as its own).
+      if (segments + (merging(scene) ? 1 : 2) > params.max_depth) break;
+      vertices[count++] = LightVertex<T>{at, throughput, toward_light, reverse_mis, connect_mis, merge_mis, hit.primitive, hit.triangle, segments, in_medium};
       if (segments + 2 > params.max_depth) break;
-      vertices[count++] = LightVertex<T>{at, throughput, toward_light, reverse_mis, connect_mis, hit.primitive, hit.triangle, segments, in_medium};
       Scatter<T> scatter;
       if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, BounceRandom{&random, kLightPathBounce + segments}, scatter)) break;
       if (!(scatter.pdf > T(0))) break;
@@ -446,7 +476,9 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
       const T out_cosine = vertex_cosine(at, in_medium, out);
       if (!(cosine > T(0))) break;
       throughput *= value.value * (out_cosine / (cosine * scatter.pdf));
-      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(value.pdf) + reverse_mis);
+      if (merging(scene))
+        merge_mis = merge_mis_after_scattering(scene, in_medium, mis_power(out_cosine / scatter.pdf), merge_mis, mis_power(value.pdf), reverse_mis);
+      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(value.pdf) + reverse_mis + merge_share_at(scene, in_medium));
       reverse_mis = mis_power(T(1) / scatter.pdf);
       ray = scatter.ray;
     }
@@ -489,8 +521,8 @@ PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, 
     const T forward_there = bidirectional_evaluate(scene, light_material, y.at, y.toward_light, -direction).pdf;
     const T camera_to_light = here.pdf * cosine_there / distance2;
     const T light_to_camera = forward_there * cosine_here / distance2;
-    const T light_share = mis_power_times(camera_to_light, y.reverse_mis + y.connect_mis * mis_power(there.pdf));
-    const T camera_share = mis_power_times(light_to_camera, x.reverse_mis + x.connect_mis * mis_power(reverse_here));
+    const T light_share = mis_power_times(camera_to_light, merge_share_at(scene, y.in_medium) + y.reverse_mis + y.connect_mis * mis_power(there.pdf));
+    const T camera_share = mis_power_times(light_to_camera, merge_share_at(scene, x.in_medium) + x.reverse_mis + x.connect_mis * mis_power(reverse_here));
     const T weight = T(1) / (light_share + T(1) + camera_share);
     T transmitted;
     ++rays;
@@ -498,6 +530,84 @@ PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, 
     sum += x.throughput * here.value * there.value * y.throughput * (weight * cosine_there * transmitted / (incoming_cosine * distance2));
   }
   return sum;
+}
+
+// ---- Vertex merging ----
+// A merging pass keeps the light vertices of its light subpaths (one a pixel of a band of rows) in a hash grid of cells
+// twice the radius wide, so that the disc about a camera vertex lies within the 2 x 2 x 2 cells about it. A cell's list
+// holds the vertices' places in the band's buffers (slot i x capacity + pixel) in increasing order, so that a camera
+// vertex sums what it merges in one order on every device and with any number of threads.
+template <class T>
+struct MergeGrid {
+  u32* starts;   // cells + 1: cell c's places are entries[starts[c], starts[c + 1])
+  u32* cursor;   // cells: while the grid is built, each cell's count, then where its next place goes
+  u32* entries;  // the places
+  u32 cells;     // a power of two
+  T cell_size;   // twice the radius
+};
+
+// The cell of a point along one axis, kept within the range of a 32-bit integer.
+template <class T>
+PT_HD inline i32 merge_cell_coordinate(T value, T cell_size) {
+  const T cell = floor(value / cell_size);
+  const T bound = constant<T>(1073741824.0);  // 2^30
+  return static_cast<i32>(cell < -bound ? -bound : cell > bound ? bound : cell);
+}
+
+PT_HD inline u32 merge_cell_hash(i32 x, i32 y, i32 z, u32 cells) {
+  return ((static_cast<u32>(x) * 73856093u) ^ (static_cast<u32>(y) * 19349663u) ^ (static_cast<u32>(z) * 83492791u)) & (cells - 1);
+}
+
+template <class T>
+PT_HD inline u32 merge_cell_of(const MergeGrid<T>& grid, const Vec3<T>& p) {
+  return merge_cell_hash(merge_cell_coordinate(p.x, grid.cell_size), merge_cell_coordinate(p.y, grid.cell_size), merge_cell_coordinate(p.z, grid.cell_size),
+                         grid.cells);
+}
+
+// Whether a light vertex goes into the grid: merging takes surface vertices only.
+template <class T>
+PT_HD inline bool mergeable(const LightVertex<T>& vertex) {
+  return !vertex.in_medium;
+}
+
+// The radiance camera vertex `x` takes from the light vertices within the radius (at most 2 x 2 x 2 cells, each cell's
+// list read once however many of them share a hash): each vertex's throughput, scattered towards the camera by x's
+// material, over the disc's area and the number of light subpaths (MergeParams::normalization), weighed against
+// joining and merging at the other vertices of the same path. The light vertex's throughput is power per area across
+// its arrival direction; x's material value holds the shading cosine, so it is divided by the geometric one.
+template <class T>
+PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const CameraVertex<T>& x, const LightVertex<T>* light_vertices,
+                                                const MergeGrid<T>& grid) {
+  Color<T> sum{};
+  if (x.in_medium) return sum;
+  const MergeParams<T>& merge = scene.params.merging;
+  const Material<T>& material = scene.materials[x.at.material];
+  const T radius2 = merge.radius * merge.radius;
+  const i32 bx = merge_cell_coordinate(x.at.p.x - merge.radius, grid.cell_size), by = merge_cell_coordinate(x.at.p.y - merge.radius, grid.cell_size),
+            bz = merge_cell_coordinate(x.at.p.z - merge.radius, grid.cell_size);
+  u32 visited[8];
+  for (u32 k = 0; k < 8; ++k) {
+    const u32 cell = merge_cell_hash(bx + static_cast<i32>(k & 1), by + static_cast<i32>((k >> 1) & 1), bz + static_cast<i32>(k >> 2), grid.cells);
+    visited[k] = cell;
+    bool seen = false;
+    for (u32 j = 0; j < k; ++j) seen = seen || visited[j] == cell;
+    if (seen) continue;
+    for (u32 e = grid.starts[cell]; e < grid.starts[cell + 1]; ++e) {
+      const LightVertex<T>& y = light_vertices[grid.entries[e]];
+      if (y.segments + x.segments > scene.params.max_depth) continue;
+      if (!(length_squared(y.at.p - x.at.p) <= radius2)) continue;
+      const ScatterValue<T> here = bidirectional_evaluate(scene, material, x.at, x.toward_camera, y.toward_light);
+      if (!(max_component(here.value) > T(0))) continue;
+      const T cosine = vertex_cosine(x.at, false, y.toward_light);
+      if (!(cosine > T(0))) continue;
+      const T reverse = bidirectional_evaluate(scene, material, x.at, y.toward_light, x.toward_camera).pdf;
+      const T light_share = y.reverse_mis * merge.connect_share + y.merge_mis * mis_power(here.pdf);
+      const T camera_share = x.reverse_mis * merge.connect_share + x.merge_mis * mis_power(reverse);
+      const T weight = T(1) / (light_share + T(1) + camera_share);
+      sum += here.value * y.throughput * (weight / cosine);
+    }
+  }
+  return x.throughput * sum * merge.normalization;
 }
 
 // Light sampling from a camera vertex (s = 1): a light picked and a point or direction drawn as the path tracer draws
@@ -542,7 +652,9 @@ PT_NOINLINE PT_HD Color<T> connect_to_light(const SceneView<T>& scene, const Sam
   const T reverse_here = bidirectional_evaluate(scene, material, at, light.direction, toward_camera).pdf;
   const T scatter_share = mis_power(value.pdf / direct);
   const T light_share =
-      light_cosine > T(0) ? mis_power_times(emission * cosine_here / (direct * light_cosine), reverse_mis + connect_mis * mis_power(reverse_here)) : T(0);
+      light_cosine > T(0) ? mis_power_times(emission * cosine_here / (direct * light_cosine),
+                                            merge_share_at(scene, in_medium) + reverse_mis + connect_mis * mis_power(reverse_here))
+                          : T(0);
   const T weight = T(1) / (scatter_share + T(1) + light_share);
   return throughput * value.value * material_emitted(light_material, on_light, scene.textures, scene.texture_data) *
          (weight * transmittance(optical_depth) / direct);
@@ -558,7 +670,7 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
   Color<T> radiance{};
   Color<T> throughput = Color<T>::splat(T(1));
   T reverse_mis = primary.density > T(0) ? mis_power(T(1) / primary.density) : T(0);
-  T connect_mis = T(0);
+  T connect_mis = T(0), merge_mis = T(0);
   T scatter_pdf = T(0);  // of the last direction, 0 for the camera ray and specular choices (as the path tracer keeps it)
   for (u32 bounce = 0; bounce < params.max_depth; ++bounce) {
     Hit<T> hit{};
@@ -581,6 +693,7 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     if (cosine > T(0)) {
       reverse_mis /= mis_power(cosine);
       connect_mis /= mis_power(cosine);
+      if (merging(scene)) merge_mis /= mis_power(cosine);
     }
     // Emission met by the camera subpath (s = 0): weighed against light sampling from the previous vertex and against
     // the light subpaths that start at this point.
@@ -600,7 +713,7 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     if (material_samples_lights(material)) {
       if (scene.lights.count > 0)
         radiance += connect_to_light(scene, random, ray, at, in_medium, material, throughput, reverse_mis, connect_mis, bounce, rays);
-      connect(CameraVertex<T>{at, throughput, -ray.direction, reverse_mis, connect_mis, ray.time, bounce + 1, in_medium});
+      connect(CameraVertex<T>{at, throughput, -ray.direction, reverse_mis, connect_mis, merge_mis, ray.time, bounce + 1, in_medium});
     }
     Scatter<T> scatter;
     const BounceRandom bounce_random{&random, bounce};
@@ -608,11 +721,14 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
     if (scatter.pdf > T(0)) {
       const T reverse = bidirectional_evaluate(scene, material, at, scatter.ray.direction, -ray.direction).pdf;
-      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(reverse) + reverse_mis);
+      if (merging(scene))
+        merge_mis = merge_mis_after_scattering(scene, in_medium, mis_power(out_cosine / scatter.pdf), merge_mis, mis_power(reverse), reverse_mis);
+      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(reverse) + reverse_mis + merge_share_at(scene, in_medium));
       reverse_mis = mis_power(T(1) / scatter.pdf);
     } else {
       reverse_mis = T(0);
       connect_mis *= mis_power(out_cosine);
+      if (merging(scene)) merge_mis *= mis_power(out_cosine);
     }
     throughput *= scatter.attenuation;
     scatter_pdf = scatter.pdf;
@@ -736,6 +852,7 @@ struct BidirectionalBand {
   u32 capacity;   // pixels a band holds
   u32 first_row;  // of the band being rendered
   u32 pixels;     // of the band being rendered (whole rows)
+  MergeGrid<T> grid;  // the band's light vertices by place, in a merging pass
 
   PT_HD Strided<LightVertex<T>> light_vertices_of(u32 pixel) const { return {light_vertices + pixel, capacity}; }
   PT_HD CameraVertex<T>& camera_vertex(u32 pixel, u32 i) const { return camera_vertices[static_cast<std::size_t>(i) * capacity + pixel]; }
@@ -768,8 +885,9 @@ struct BidirectionalCameraSubpaths {
     const u32 pixel = row * scene.params.width + x;
     const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, band.first_row + row, sample);
     u32 rays = band.direct[pixel].rays;  // the light subpath's
-    // Without light vertices its vertices join nothing (their connections would add zero): none are kept.
-    const bool joined = band.light_counts[pixel] > 0;
+    // Without light vertices its vertices join nothing (their connections would add zero): none are kept, unless
+    // they can merge with other pixels' light vertices.
+    const bool joined = band.light_counts[pixel] > 0 || merging(scene);
     u32 cameras = 0;
     const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
       if (!joined) return;
@@ -794,8 +912,63 @@ struct BidirectionalConnect {
     const u32 i = place / band.capacity, pixel = place % band.capacity;
     const SampleRandom random = path_random(scene.params, band.first_row * scene.params.width + pixel, sample);
     u32 rays = 0;
-    const Color<T> sum = connect_to_light_vertices(scene, random, band.camera_vertex(pixel, i), band.light_vertices_of(pixel), band.light_counts[pixel], rays);
+    const CameraVertex<T>& vertex = band.camera_vertex(pixel, i);
+    Color<T> sum = connect_to_light_vertices(scene, random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
+    if (merging(scene)) sum += merge_light_vertices(scene, vertex, static_cast<const LightVertex<T>*>(band.light_vertices), band.grid);
     band.connection(pixel, i) = ConnectionSum<T>{sum, rays};
+  }
+};
+
+// Between stage 1's two launches of a merging pass, the grid of the band's light vertices is built: each cell's vertices
+// counted (into grid.cursor), the counts summed into starts on the host, each vertex's place written at its cell's
+// cursor (in whatever order the threads come), and each cell's list sorted, so that the grid is the same on every
+// device.
+template <class T>
+struct MergeGridCount {
+  BidirectionalBand<T> band;
+  PT_HD void operator()(u32 pixel) const {
+    const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);
+    for (u32 i = 0; i < band.light_counts[pixel]; ++i)
+      if (mergeable(vertices[i])) atomic_fetch_add(&band.grid.cursor[merge_cell_of(band.grid, vertices[i].at.p)], 1u);
+  }
+};
+
+template <class T>
+struct MergeGridFill {
+  BidirectionalBand<T> band;
+  PT_HD void operator()(u32 pixel) const {
+    const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);
+    for (u32 i = 0; i < band.light_counts[pixel]; ++i)
+      if (mergeable(vertices[i])) band.grid.entries[atomic_fetch_add(&band.grid.cursor[merge_cell_of(band.grid, vertices[i].at.p)], 1u)] = i * band.capacity + pixel;
+  }
+};
+
+// Heapsort of one cell's places: in place, without recursion, n log n however crowded a cell (a caustic's focus).
+struct MergeGridSort {
+  const u32* starts;
+  u32* entries;
+  PT_HD static void sift_down(u32* a, u32 root, u32 n) {
+    while (2 * root + 1 < n) {
+      u32 child = 2 * root + 1;
+      if (child + 1 < n && a[child] < a[child + 1]) ++child;
+      if (!(a[root] < a[child])) return;
+      const u32 t = a[root];
+      a[root] = a[child];
+      a[child] = t;
+      root = child;
+    }
+  }
+  PT_HD void operator()(u32 cell) const {
+    u32* a = entries + starts[cell];
+    const u32 n = starts[cell + 1] - starts[cell];
+    if (n < 2) return;
+    for (u32 i = n / 2; i-- > 0;) sift_down(a, i, n);
+    for (u32 end = n - 1; end > 0; --end) {
+      const u32 t = a[0];
+      a[0] = a[end];
+      a[end] = t;
+      sift_down(a, 0, end);
+    }
   }
 };
 

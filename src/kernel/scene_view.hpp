@@ -9,6 +9,17 @@
 
 namespace pt {
 
+// One pass of vertex merging (VCM): camera vertices take the light vertices of the pass's light subpaths that lie within
+// `radius` as their own (a density estimate over the disc of that radius). eta = pi radius^2 light_subpaths relates the
+// densities of merging and joining at one vertex; the weights need its power and its inverse's.
+template <class T>
+struct MergeParams {
+  T radius;           // 0: no merging
+  T merge_share;      // mis_power(eta): merging at a vertex over joining there
+  T connect_share;    // mis_power(1 / eta)
+  T normalization;    // 1 / eta
+};
+
 template <class T>
 struct RenderParams {
   u32 width, height;
@@ -21,6 +32,8 @@ struct RenderParams {
   // Bidirectional path tracing's unit of length in fixed point (a power of two; kernel/bidirectional.hpp, "The
   // weights' unit of length"); 1 in floating point.
   T bidirectional_unit = T(1);
+  // Vertex merging's pass (kernel/bidirectional.hpp, "Vertex merging"); all zero where light vertices are only joined.
+  MergeParams<T> merging{};
 };
 
 // ---- Lights, for next-event estimation ----

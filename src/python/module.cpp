@@ -97,7 +97,8 @@ Integrator integrator_named(const std::string& name) {
   if (name == "megakernel") return Integrator::kMegakernel;
   if (name == "auto") return Integrator::kAuto;
   if (name == "bdpt") return Integrator::kBidirectional;
-  throw InputError(fmt::format("integrator='{}': not one of auto, megakernel, wavefront, bdpt", name));
+  if (name == "vcm") return Integrator::kVertexMerging;
+  throw InputError(fmt::format("integrator='{}': not one of auto, megakernel, wavefront, bdpt, vcm", name));
 }
 
 template <class T>
