@@ -90,6 +90,7 @@ struct RenderArguments {
   double time_limit = 0;
   py::object progress = py::none();
   std::vector<std::string> layers;
+  double merge_radius = 0;  // integrator vcm's first radius; 0: from the camera
 };
 
 Integrator integrator_named(const std::string& name) {
@@ -103,7 +104,8 @@ Integrator integrator_named(const std::string& name) {
 
 template <class T>
 PyRender render_with(const SceneDescription& scene, const RenderArguments& arguments) {
-  const RenderSettings settings = apply_overrides(scene, arguments.overrides, kPythonSpelling);
+  RenderSettings settings = apply_overrides(scene, arguments.overrides, kPythonSpelling);
+  settings.merge_radius = arguments.merge_radius;
   const std::vector<std::string> backends = backend_names();
   if (std::ranges::find(backends, arguments.backend) == backends.end())
     throw InputError(fmt::format("backend='{}': not one of {}", arguments.backend, backend_choices()));
@@ -277,7 +279,7 @@ PYBIND11_MODULE(pathtracer, m) {
          std::optional<u32> seed, std::optional<std::string> light_sampling, std::optional<std::string> sampler, const std::string& backend,
          const std::string& device, unsigned threads, const std::string& integrator, const std::string& number_format, std::optional<int> sycl_device,
          std::optional<double> time_limit, const py::object& progress, const py::object& layers, bool trust_model_paths,
-         std::optional<double> noise_threshold, std::optional<double> light_threshold) {
+         std::optional<double> noise_threshold, std::optional<double> light_threshold, std::optional<double> merge_radius) {
         RenderArguments arguments;
         arguments.overrides = {width, height, spp, depth, seed, {}, {}, noise_threshold, light_threshold};
         if (light_sampling) {
@@ -292,6 +294,9 @@ PYBIND11_MODULE(pathtracer, m) {
         }
         if (time_limit && !(*time_limit > 0 && *time_limit < 1e300))
           throw InputError(fmt::format("time_limit={}: not a positive number of seconds", *time_limit));
+        if (merge_radius && !(*merge_radius >= 0 && *merge_radius < 1e300))
+          throw InputError(fmt::format("merge_radius={}: not a length of zero or more", *merge_radius));
+        arguments.merge_radius = merge_radius.value_or(0);
         if (sycl_device && *sycl_device < 0) throw InputError(fmt::format("sycl_device={}: not a device index", *sycl_device));
         if (!progress.is_none() && !PyCallable_Check(progress.ptr())) throw py::type_error("progress: a callable, or None");
         arguments.backend = backend;
@@ -314,13 +319,14 @@ PYBIND11_MODULE(pathtracer, m) {
       py::arg("backend") = "cpu", py::arg("device") = "0", py::arg("threads") = 0u, py::arg("integrator") = "auto",
       py::arg("number_format") = "float", py::arg("sycl_device") = py::none(), py::arg("time_limit") = py::none(), py::arg("progress") = py::none(),
       py::arg("layers") = py::none(), py::arg("trust_model_paths") = false, py::arg("noise_threshold") = py::none(),
-      py::arg("light_threshold") = py::none(),
+      py::arg("light_threshold") = py::none(), py::arg("merge_radius") = py::none(),
       "Renders a scene (a path, a dict or a Scene) with the scene's settings and the ones given, as `pathtracer render` does.\n"
       "progress(report) is called after every pass with a dict (samples_done, samples_total, elapsed_seconds,\n"
       "samples_per_second); returning False stops the render, which returns the image of the samples done.\n"
       "An exception in it, or Ctrl-C, stops the render and is raised. layers: 'albedo,normal', a list of names, or 'all'.\n"
       "noise_threshold: adaptive sampling, pixels stop once their estimated error as displayed (0..1) is below it.\n"
       "light_sampling: auto, nee or none; light_threshold: shadow rays that could add less are traced by chance (0: all).\n"
+      "integrator: auto, megakernel, wavefront, bdpt or vcm; merge_radius: vcm's first merging radius (0 or None: from the camera).\n"
       "Returns a Render.");
 
   m.def("write_image", &write_array, py::arg("path"), py::arg("image"),

@@ -97,6 +97,20 @@ def test_bdpt_is_the_programs_image_bit_for_bit_on_any_thread_count(tmp_path):
     assert abs(fixed.mean() - double.mean()) < 1e-3 * double.mean()
 
 
+def test_vcm_is_the_programs_image_bit_for_bit_with_its_radius(tmp_path):
+    scene = SCENES / "caustics.json"
+    images = [pathtracer.render(scene, **SMALL, threads=t, integrator="vcm", merge_radius=0.05).image for t in (1, 2)]
+    assert np.array_equal(images[0], images[1])
+    expected = program_render(tmp_path, scene, "--width", "40", "--height", "24", "--spp", "4", "--integrator", "vcm", "--merge-radius", "0.05")
+    assert np.array_equal(images[0], expected)
+    # The radius reaches the render, and the default is the program's too.
+    assert not np.array_equal(pathtracer.render(scene, **SMALL, integrator="vcm").image, images[0])
+    assert np.array_equal(pathtracer.render(scene, **SMALL, integrator="vcm").image,
+                          program_render(tmp_path, scene, "--width", "40", "--height", "24", "--spp", "4", "--integrator", "vcm"))
+    with pytest.raises(pathtracer.Error, match="^merge_radius=-1"):
+        pathtracer.render(scene, **SMALL, integrator="vcm", merge_radius=-1)
+
+
 def test_fixed_point_formats_render():
     formats = pathtracer.number_formats()
     assert {"float", "double", "q16.16"} <= set(formats)

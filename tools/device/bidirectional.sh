@@ -4,9 +4,11 @@
 # same whatever the passes); `sanitize`: compute-sanitizer's memcheck and racecheck on a bdpt render; `bench`: time to
 # equal error of bdpt against the default integrator (bench/light_sampling_efficiency.py) on the scenes with
 # caustics and the shipped ones; `schedules`: the one-kernel and the staged schedule side by side (`pathtracer bench`
-# medians, in the order one-kernel, staged, staged, one-kernel). Logs go to $OUT.
-# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench] [schedules]   (the first three when no argument
-# is given)
+# medians, in the order one-kernel, staged, staged, one-kernel); `vcm`: time to equal error of vcm, bdpt and the default
+# integrator on the caustic scenes, errors against references of 8,192 bdpt samples rendered here. `check` and
+# `sanitize` cover vcm too. Logs go to $OUT.
+# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench] [schedules] [vcm]   (the first three when no
+# argument is given)
 set -uo pipefail
 export LD_LIBRARY_PATH="$PWD/out/device/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PT_SOURCE_DIR="$PWD" PT_PATHTRACER_BINARY="$PWD/out/device/bin/pathtracer"
@@ -18,18 +20,20 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 
 if [[ $steps == *check* ]]; then
   echo "== tests"
-  timeout 400 out/device/bin/pt_tests --gtest_filter='*Bidirectional*.Cuda*' >"$OUT/bdpt-tests.log" 2>&1
+  timeout 400 out/device/bin/pt_tests --gtest_filter='*Bidirectional*.Cuda*:*VertexMerging*.Cuda*' >"$OUT/bdpt-tests.log" 2>&1
   echo "exit $?"
   grep -E "^\[  (PASSED|FAILED)|worst block|variance|SKIPPED" "$OUT/bdpt-tests.log" | head -60
 fi
 
 if [[ $steps == *sanitize* ]]; then
-  for tool in memcheck racecheck; do
-    echo "== compute-sanitizer $tool"
-    compute-sanitizer --tool $tool --error-exitcode 9 "$PT" render scenes/caustics.json --backend cuda --integrator bdpt --width 32 --height 18 \
-      --spp 1 -q -o "$OUT/sanitized.pfm" >"$OUT/sanitize-$tool.log" 2>&1
-    echo "exit $?"
-    tail -3 "$OUT/sanitize-$tool.log"
+  for integrator in bdpt vcm; do
+    for tool in memcheck racecheck; do
+      echo "== compute-sanitizer $tool ($integrator)"
+      compute-sanitizer --tool $tool --error-exitcode 9 "$PT" render scenes/caustics.json --backend cuda --integrator $integrator --width 32 --height 18 \
+        --spp 2 -q -o "$OUT/sanitized.pfm" >"$OUT/sanitize-$tool-$integrator.log" 2>&1
+      echo "exit $?"
+      tail -3 "$OUT/sanitize-$tool-$integrator.log"
+    done
   done
 fi
 
@@ -52,4 +56,16 @@ if [[ $steps == *bench* ]]; then
   python3 bench/light_sampling_efficiency.py "$PT" --option integrator --choices auto,bdpt --best-of auto --size 400x240 --spp 64 \
     --runs 3 --rounds 2 --scenes scenes/caustics.json,scenes/cornell-glass.json,scenes/light-through-gap.json,scenes/cornell-box.json,scenes/cornell-smoke.json,scenes/seed-default.json,scenes/book1-final.json,scenes/meshes.json \
     -- --backend cuda | tee "$OUT/bdpt-efficiency.md"
+fi
+
+if [[ $steps == *vcm* ]]; then
+  echo "== time to equal error (squared error against 8,192 bdpt samples), vcm and bdpt against the default integrator (CUDA)"
+  mkdir -p "$OUT/references"
+  for scene in caustics cornell-glass light-through-gap; do
+    "$PT" render "scenes/$scene.json" --backend cuda --integrator bdpt --width 400 --height 240 --spp 8192 --seed 99 -q -o "$OUT/references/$scene.pfm"
+  done
+  python3 bench/light_sampling_efficiency.py "$PT" --option integrator --choices auto,bdpt,vcm --best-of auto --size 400x240 --spp 64 \
+    --runs 3 --rounds 2 --seeds 2 --references "$OUT/references" \
+    --scenes scenes/caustics.json,scenes/cornell-glass.json,scenes/light-through-gap.json -- --backend cuda | tee "$OUT/vcm-efficiency.md"
+  rm -rf "$OUT/references"
 fi
