@@ -338,7 +338,7 @@ TEST(Bidirectional, SyclImagesShareTheCpusSamples) {
 // The staged schedule (both subpaths, then the connections as a launch of their own, then the gathering, over bands of
 // rows) forms each sample's sums in the one-kernel schedule's order: the same film bit for bit. On the CPU a band of
 // the host's size holds a few rows of these images, so the bands' seams are crossed many times.
-void expect_schedules_make_the_same_film(const std::string& backend_name, u32 width, u32 height) {
+void expect_schedules_make_the_same_film(const std::string& backend_name, u32 width, u32 height, Integrator integrator = Integrator::kBidirectional) {
   for (const char* name : {"caustics", "cornell-smoke", "meshes", "environment", "seed-default"}) {
     const SceneDescription scene = load_scene_file(test::scene_path(std::string(name) + ".json"));
     RenderSettings settings = scene.render;
@@ -348,7 +348,7 @@ void expect_schedules_make_the_same_film(const std::string& backend_name, u32 wi
     auto film = [&](BidirectionalSchedule schedule) {
       settings.bidirectional_schedule = schedule;
       const FlatScene<float> flat = flatten_scene<float>(scene, settings);  // the CPU renders from its arrays
-      const std::unique_ptr<RenderBackend<float>> backend = backend_named<float>(backend_name, Integrator::kBidirectional);
+      const std::unique_ptr<RenderBackend<float>> backend = backend_named<float>(backend_name, integrator);
       backend->upload(flat);
       backend->render(0, 2);
       backend->render(2, 1);
@@ -358,11 +358,19 @@ void expect_schedules_make_the_same_film(const std::string& backend_name, u32 wi
     };
     const std::vector<FilmPixel> one_kernel = film(BidirectionalSchedule::kOneKernel);
     const std::vector<FilmPixel> staged = film(BidirectionalSchedule::kStaged);
-    EXPECT_TRUE(test::same_film(one_kernel, staged)) << name << " (" << backend_name << ")";
+    EXPECT_TRUE(test::same_film(one_kernel, staged)) << name << " (" << backend_name << ", " << integrator_name(integrator) << ")";
   }
 }
 
 TEST(Bidirectional, StagedScheduleMakesTheOneKernelFilmBitForBit) { expect_schedules_make_the_same_film("cpu", 96, 64); }
+
+// Merging's camera side in one launch (the host's default) or in stages: the same film too.
+TEST(VertexMerging, StagedScheduleMakesTheOneLaunchFilmBitForBit) { expect_schedules_make_the_same_film("cpu", 96, 64, Integrator::kVertexMerging); }
+
+TEST(VertexMerging, CudaStagedScheduleMakesTheOneLaunchFilmBitForBit) {
+  if (const std::string why = why_no("cuda"); !why.empty()) GTEST_SKIP() << why;
+  expect_schedules_make_the_same_film("cuda", 320, 180, Integrator::kVertexMerging);
+}
 
 TEST(Bidirectional, CudaStagedScheduleMakesTheOneKernelFilmBitForBit) {
   if (const std::string why = why_no("cuda"); !why.empty()) GTEST_SKIP() << why;

@@ -2,8 +2,9 @@
 // light subpath and a camera subpath per pixel and joins them (kernel/bidirectional.hpp, BidirectionalSample), or the
 // staged schedule, four launches over a band of rows at a time (light subpaths; camera subpaths; connections;
 // gathering); then one that folds that sample's splats into the film. Both make the same image bit for bit. Vertex
-// connection and merging (VCM) is the staged schedule with a grid of each band's light vertices built between the light
-// and the camera subpaths, which the connections' launch also merges with.
+// connection and merging (VCM) runs in bands always (a band's light subpaths are a pass's pool), with a grid of the
+// band's light vertices built between the light and the camera subpaths: the camera side then runs as stages (the
+// connections' launch also merges) or, on the host, in one launch (VertexMergingCameraSample); the same film either way.
 #pragma once
 
 #include <algorithm>
@@ -70,6 +71,9 @@ class BidirectionalIntegrator {
     const std::size_t bytes = 3 * sizeof(u64) * static_cast<std::size_t>(params.width) * params.height;
     splats_ = static_cast<u64*>(memory_.allocate(bytes, "allocating the splat sums"));
     device_.clear(splats_, bytes, "clearing the splat sums");
+    // Merging always runs in bands (its pool of light subpaths); its camera side in one launch where one kernel a sample
+    // is the device's faster (the host), else in stages.
+    merging_in_one_launch_ = merge_radius_ > 0 && !bidirectional_staged(device_, schedule, true);
     if (merge_radius_ > 0)
       allocate_band(kMergingBandBytes);
     else if (bidirectional_staged(device_, schedule, light_subpaths))
@@ -97,6 +101,12 @@ class BidirectionalIntegrator {
           stage(kLightSubpaths,
                 [&] { device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s}); });
           if (merge_radius_ > 0) stage(kMergeGrid, [&] { build_merge_grid(); });
+          if (merging_in_one_launch_) {
+            stage(kCameraSubpaths, [&] {
+              device_.launch_image("launching the merging camera subpaths", width, rows, VertexMergingCameraSample<T>{scene_, band_, film_, s});
+            });
+            continue;
+          }
           stage(kCameraSubpaths,
                 [&] { device_.launch_image("launching the camera subpaths", width, rows, BidirectionalCameraSubpaths<T>{scene_, band_, s}); });
           // The host waits here for the queue's length.
@@ -122,7 +132,9 @@ class BidirectionalIntegrator {
   std::vector<std::pair<std::string, double>> stage_seconds() const {
     std::vector<std::pair<std::string, double>> out;
     for (u32 i = 0; i < kStages; ++i)
-      if (i == kFolding || ((band_rows_ == 0) == (i == kSamples) && (i != kMergeGrid || merge_radius_ > 0))) out.emplace_back(kStageNames[i], seconds_[i]);
+      if (i == kFolding || ((band_rows_ == 0) == (i == kSamples) && (i != kMergeGrid || merge_radius_ > 0) &&
+                            (!merging_in_one_launch_ || (i != kConnections && i != kGathering))))
+        out.emplace_back(kStageNames[i], seconds_[i]);
     return out;
   }
 
@@ -160,12 +172,15 @@ class BidirectionalIntegrator {
     const std::size_t capacity = static_cast<std::size_t>(band_rows_) * width;
     band_.capacity = static_cast<u32>(capacity);
     band_.light_vertices = allocate<LightVertex<T>>(capacity * light_slots);
-    band_.camera_vertices = allocate<CameraVertex<T>>(capacity * camera_slots_);
-    band_.connections = allocate<ConnectionSum<T>>(capacity * camera_slots_);
     band_.direct = allocate<SampleResult<T>>(capacity);
     band_.light_counts = allocate<u32>(capacity);
-    band_.camera_counts = allocate<u32>(capacity);
-    band_.connect_queue = allocate<u32>(capacity * camera_slots_);
+    // (The band's rows are counted with the camera side's buffers either way: they set merging's pool of light subpaths.)
+    if (!merging_in_one_launch_) {
+      band_.camera_vertices = allocate<CameraVertex<T>>(capacity * camera_slots_);
+      band_.connections = allocate<ConnectionSum<T>>(capacity * camera_slots_);
+      band_.camera_counts = allocate<u32>(capacity);
+      band_.connect_queue = allocate<u32>(capacity * camera_slots_);
+    }
     band_.connect_length = allocate<u32>(1);
     device_.clear(band_.connect_length, sizeof(u32), "clearing the bidirectional connection queue");
     if (merging) {
@@ -202,6 +217,7 @@ class BidirectionalIntegrator {
   BidirectionalBand<T> band_{};
   u32 band_rows_ = 0, camera_slots_ = 0;  // rows a band holds (0: one kernel a sample); camera vertex slots a pixel
   double merge_radius_ = 0;                // the first pass's merging radius; 0: no merging
+  bool merging_in_one_launch_ = false;     // merging's camera side: VertexMergingCameraSample instead of stages 1b to 3
   std::vector<u32> cell_starts_;           // the merging grid's counts and starts, on the host
   std::array<double, kStages> seconds_{};
 };

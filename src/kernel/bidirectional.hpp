@@ -996,6 +996,33 @@ struct BidirectionalGather {
   }
 };
 
+// A merging pass's camera side in one launch over the band's pixels, where one kernel a sample suits the device (the
+// host): the camera subpath, each of its vertices joined to its pixel's light vertices and merged with the grid's as it
+// is reached, and the sample added to the film. The sums are formed as stages 1 to 3 form them, in the same order, so
+// both make the same film bit for bit.
+template <class T>
+struct VertexMergingCameraSample {
+  SceneView<T> scene;
+  BidirectionalBand<T> band;
+  FilmPixel* film;
+  u32 sample;
+  PT_HD void operator()(u32 x, u32 row) const {
+    const u32 width = scene.params.width, pixel = row * width + x;
+    const BidirectionalStart<T> start = start_bidirectional_sample(scene, x, band.first_row + row, sample);
+    u32 rays = band.direct[pixel].rays;  // the light subpath's
+    Color<T> connected{};
+    const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
+      Color<T> sum = connect_to_light_vertices(scene, start.random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
+      sum += merge_light_vertices(scene, vertex, static_cast<const LightVertex<T>*>(band.light_vertices), band.grid);
+      connected += sum;
+    });
+    FilmPixel& target = film[static_cast<std::size_t>(band.first_row) * width + pixel];
+    FilmPixel total = target;
+    add_sample(total, SampleResult<T>{bidirectional_radiance(direct, connected), rays}, sample);
+    target = total;
+  }
+};
+
 // Folds one sample's splat sums into the film and clears them, pixel by pixel.
 struct FoldSplats {
   FilmPixel* film;
