@@ -152,7 +152,7 @@ class BidirectionalIntegrator {
     device_.copy_to_device(grid.starts, cell_starts_.data(), (grid.cells + 1) * sizeof(u32), "copying the merging grid's starts");
     device_.copy_to_device(grid.cursor, cell_starts_.data(), grid.cells * sizeof(u32), "copying the merging grid's starts");
     device_.launch("placing the light vertices to merge", band_.pixels, MergeGridFill<T>{band_});
-    device_.launch("sorting the merging grid", grid.cells, MergeGridSort{grid.starts, grid.entries});
+    device_.launch("sorting the merging grid", grid.cells, MergeGridSort<T>{band_});
   }
 
   // Buffers for as many whole rows as `budget` bytes hold (at least one).
@@ -162,8 +162,8 @@ class BidirectionalIntegrator {
     // Merging also keeps the vertex a light subpath reaches last: a camera vertex can take it as its own.
     const u32 light_slots = merging ? std::max(depth, 2u) - 1 : std::max(depth, 3u) - 2;
     camera_slots_ = std::max(depth, 2u) - 1;
-    // Merging: a place for each light vertex in the grid, and about two cells a pixel.
-    const std::size_t grid_per_pixel = merging ? light_slots * sizeof(u32) + 4 * sizeof(u32) : 0;
+    // Merging: a place and a position for each light vertex in the grid, and about two cells a pixel.
+    const std::size_t grid_per_pixel = merging ? light_slots * (sizeof(u32) + sizeof(Vec3<T>)) + 4 * sizeof(u32) : 0;
     const std::size_t per_pixel = light_slots * sizeof(LightVertex<T>) + camera_slots_ * (sizeof(CameraVertex<T>) + sizeof(ConnectionSum<T>) + sizeof(u32)) +
                                   sizeof(SampleResult<T>) + 2 * sizeof(u32) + grid_per_pixel;
     band_rows_ = static_cast<u32>(std::clamp<std::size_t>(budget / (per_pixel * width), 1, height));
@@ -172,6 +172,8 @@ class BidirectionalIntegrator {
     const std::size_t capacity = static_cast<std::size_t>(band_rows_) * width;
     band_.capacity = static_cast<u32>(capacity);
     band_.light_vertices = allocate<LightVertex<T>>(capacity * light_slots);
+    band_.light_pixel_stride = device_.host() ? light_slots : 1;
+    band_.light_slot_stride = device_.host() ? static_cast<u32>(1) : static_cast<u32>(capacity);
     band_.direct = allocate<SampleResult<T>>(capacity);
     band_.light_counts = allocate<u32>(capacity);
     // (The band's rows are counted with the camera side's buffers either way: they set merging's pool of light subpaths.)
@@ -189,6 +191,7 @@ class BidirectionalIntegrator {
       grid.starts = allocate<u32>(grid.cells + 1);
       grid.cursor = allocate<u32>(grid.cells);
       grid.entries = allocate<u32>(capacity * light_slots);
+      grid.positions = allocate<Vec3<T>>(capacity * light_slots);
       cell_starts_.assign(grid.cells + 1, 0);
     }
   }

@@ -541,8 +541,9 @@ template <class T>
 struct MergeGrid {
   u32* starts;   // cells + 1: cell c's places are entries[starts[c], starts[c + 1])
   u32* cursor;   // cells: while the grid is built, each cell's count, then where its next place goes
-  u32* entries;  // the places
-  u32 cells;     // a power of two
+  u32* entries;         // the places
+  Vec3<T>* positions;   // entry e's vertex's position, read before the vertex itself (most entries are not within reach)
+  u32 cells;            // a power of two
   T cell_size;   // twice the radius
 };
 
@@ -575,9 +576,9 @@ PT_HD inline bool mergeable(const LightVertex<T>& vertex) {
 // material, over the disc's area and the number of light subpaths (MergeParams::normalization), weighed against
 // joining and merging at the other vertices of the same path. The light vertex's throughput is power per area across
 // its arrival direction; x's material value holds the shading cosine, so it is divided by the geometric one.
-template <class T>
-PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const CameraVertex<T>& x, const LightVertex<T>* light_vertices,
-                                                const MergeGrid<T>& grid) {
+// `vertex_at(place)` gives the light vertex of a place in the grid's lists.
+template <class T, class VertexAt>
+PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const CameraVertex<T>& x, const VertexAt& vertex_at, const MergeGrid<T>& grid) {
   Color<T> sum{};
   if (x.in_medium) return sum;
   const MergeParams<T>& merge = scene.params.merging;
@@ -593,9 +594,9 @@ PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const
     for (u32 j = 0; j < k; ++j) seen = seen || visited[j] == cell;
     if (seen) continue;
     for (u32 e = grid.starts[cell]; e < grid.starts[cell + 1]; ++e) {
-      const LightVertex<T>& y = light_vertices[grid.entries[e]];
+      if (!(length_squared(grid.positions[e] - x.at.p) <= radius2)) continue;
+      const LightVertex<T>& y = vertex_at(grid.entries[e]);
       if (y.segments + x.segments > scene.params.max_depth) continue;
-      if (!(length_squared(y.at.p - x.at.p) <= radius2)) continue;
       const ScatterValue<T> here = bidirectional_evaluate(scene, material, x.at, x.toward_camera, y.toward_light);
       if (!(max_component(here.value) > T(0))) continue;
       const T cosine = vertex_cosine(x.at, false, y.toward_light);
@@ -838,7 +839,9 @@ struct ConnectionSum {
   u32 rays;
 };
 
-// The buffers of a band of rows: vertex i of every pixel side by side ([i][pixel], `capacity` pixels a row of slots).
+// The buffers of a band of rows: camera vertex i of every pixel side by side ([i][pixel], `capacity` pixels a row of
+// slots); light vertices so too on a GPU (neighbouring threads read neighbouring memory), each pixel's together on the
+// host (a pixel's connections read its own vertices one after the other).
 template <class T>
 struct BidirectionalBand {
   LightVertex<T>* light_vertices;    // kMaxLightVertices slots at most: (max_depth - 2)
@@ -854,7 +857,14 @@ struct BidirectionalBand {
   u32 pixels;     // of the band being rendered (whole rows)
   MergeGrid<T> grid;  // the band's light vertices by place, in a merging pass
 
-  PT_HD Strided<LightVertex<T>> light_vertices_of(u32 pixel) const { return {light_vertices + pixel, capacity}; }
+  u32 light_pixel_stride, light_slot_stride;  // light vertex i of pixel p at light_vertices[p * pixel stride + i * slot stride]
+
+  PT_HD Strided<LightVertex<T>> light_vertices_of(u32 pixel) const {
+    return {light_vertices + static_cast<std::size_t>(pixel) * light_pixel_stride, light_slot_stride};
+  }
+  // A light vertex by its place in the merging grid's lists, i x capacity + pixel whatever the layout (so that the
+  // lists' order, and the film, are the same on every device).
+  PT_HD const LightVertex<T>& light_vertex_at(u32 place) const { return light_vertices_of(place % capacity)[place / capacity]; }
   PT_HD CameraVertex<T>& camera_vertex(u32 pixel, u32 i) const { return camera_vertices[static_cast<std::size_t>(i) * capacity + pixel]; }
   PT_HD ConnectionSum<T>& connection(u32 pixel, u32 i) const { return connections[static_cast<std::size_t>(i) * capacity + pixel]; }
 };
@@ -914,7 +924,7 @@ struct BidirectionalConnect {
     u32 rays = 0;
     const CameraVertex<T>& vertex = band.camera_vertex(pixel, i);
     Color<T> sum = connect_to_light_vertices(scene, random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
-    if (merging(scene)) sum += merge_light_vertices(scene, vertex, static_cast<const LightVertex<T>*>(band.light_vertices), band.grid);
+    if (merging(scene)) sum += merge_light_vertices(scene, vertex, [&](u32 place) -> const LightVertex<T>& { return band.light_vertex_at(place); }, band.grid);
     band.connection(pixel, i) = ConnectionSum<T>{sum, rays};
   }
 };
@@ -943,10 +953,11 @@ struct MergeGridFill {
   }
 };
 
-// Heapsort of one cell's places: in place, without recursion, n log n however crowded a cell (a caustic's focus).
+// Heapsort of one cell's places: in place, without recursion, n log n however crowded a cell (a caustic's focus); then
+// the vertices' positions beside them.
+template <class T>
 struct MergeGridSort {
-  const u32* starts;
-  u32* entries;
+  BidirectionalBand<T> band;
   PT_HD static void sift_down(u32* a, u32 root, u32 n) {
     while (2 * root + 1 < n) {
       u32 child = 2 * root + 1;
@@ -959,16 +970,19 @@ struct MergeGridSort {
     }
   }
   PT_HD void operator()(u32 cell) const {
-    u32* a = entries + starts[cell];
-    const u32 n = starts[cell + 1] - starts[cell];
-    if (n < 2) return;
-    for (u32 i = n / 2; i-- > 0;) sift_down(a, i, n);
-    for (u32 end = n - 1; end > 0; --end) {
-      const u32 t = a[0];
-      a[0] = a[end];
-      a[end] = t;
-      sift_down(a, 0, end);
+    const MergeGrid<T>& grid = band.grid;
+    u32* a = grid.entries + grid.starts[cell];
+    const u32 n = grid.starts[cell + 1] - grid.starts[cell];
+    if (n >= 2) {
+      for (u32 i = n / 2; i-- > 0;) sift_down(a, i, n);
+      for (u32 end = n - 1; end > 0; --end) {
+        const u32 t = a[0];
+        a[0] = a[end];
+        a[end] = t;
+        sift_down(a, 0, end);
+      }
     }
+    for (u32 e = 0; e < n; ++e) grid.positions[grid.starts[cell] + e] = band.light_vertex_at(a[e]).at.p;
   }
 };
 
@@ -1013,7 +1027,7 @@ struct VertexMergingCameraSample {
     Color<T> connected{};
     const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
       Color<T> sum = connect_to_light_vertices(scene, start.random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
-      sum += merge_light_vertices(scene, vertex, static_cast<const LightVertex<T>*>(band.light_vertices), band.grid);
+      sum += merge_light_vertices(scene, vertex, [&](u32 place) -> const LightVertex<T>& { return band.light_vertex_at(place); }, band.grid);
       connected += sum;
     });
     FilmPixel& target = film[static_cast<std::size_t>(band.first_row) * width + pixel];
