@@ -139,19 +139,19 @@ class BidirectionalIntegrator {
   }
 
  private:
-  // The grid of the band's light vertices (MergeGridCount and the rest, kernel/bidirectional.hpp): the counts read back
+  // The grid of the band's light vertices (MergeGridPlace and MergeGridSort, kernel/bidirectional.hpp): the counts read back
   // and summed here into each cell's start.
   void build_merge_grid() {
     const MergeGrid<T>& grid = band_.grid;
     device_.clear(grid.cursor, grid.cells * sizeof(u32), "clearing the merging grid");
-    device_.launch("counting the light vertices to merge", band_.pixels, MergeGridCount<T>{band_});
+    device_.launch("counting the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, false});
     device_.copy_to_host(cell_starts_.data(), grid.cursor, grid.cells * sizeof(u32), "reading the merging grid's counts");
     u32 total = 0;
     for (u32 c = 0; c < grid.cells; ++c) total += std::exchange(cell_starts_[c], total);
     cell_starts_[grid.cells] = total;
     device_.copy_to_device(grid.starts, cell_starts_.data(), (grid.cells + 1) * sizeof(u32), "copying the merging grid's starts");
     device_.copy_to_device(grid.cursor, cell_starts_.data(), grid.cells * sizeof(u32), "copying the merging grid's starts");
-    device_.launch("placing the light vertices to merge", band_.pixels, MergeGridFill<T>{band_});
+    device_.launch("placing the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, true});
     device_.launch("sorting the merging grid", grid.cells, MergeGridSort<T>{band_});
   }
 

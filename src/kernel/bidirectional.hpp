@@ -539,12 +539,12 @@ PT_NOINLINE PT_HD Color<T> connect_to_light_vertices(const SceneView<T>& scene, 
 // vertex sums what it merges in one order on every device and with any number of threads.
 template <class T>
 struct MergeGrid {
-  u32* starts;   // cells + 1: cell c's places are entries[starts[c], starts[c + 1])
-  u32* cursor;   // cells: while the grid is built, each cell's count, then where its next place goes
-  u32* entries;         // the places
-  Vec3<T>* positions;   // entry e's vertex's position, read before the vertex itself (most entries are not within reach)
-  u32 cells;            // a power of two
-  T cell_size;   // twice the radius
+  u32* starts;         // cells + 1: cell c's places are entries[starts[c], starts[c + 1])
+  u32* cursor;         // cells: while the grid is built, each cell's count, then where its next place goes
+  u32* entries;        // the places
+  Vec3<T>* positions;  // entry e's vertex's position, read before the vertex itself (most entries are not within reach)
+  u32 cells;           // a power of two
+  T cell_size;         // twice the radius
 };
 
 // The cell of a point along one axis, kept within the range of a 32-bit integer.
@@ -930,26 +930,22 @@ struct BidirectionalConnect {
 };
 
 // Between stage 1's two launches of a merging pass, the grid of the band's light vertices is built: each cell's vertices
-// counted (into grid.cursor), the counts summed into starts on the host, each vertex's place written at its cell's
+// counted (into grid.cursor: MergeGridPlace), the counts summed into starts on the host, each vertex's place written at its cell's
 // cursor (in whatever order the threads come), and each cell's list sorted, so that the grid is the same on every
 // device.
+// Both passes over the band's light vertices take a slot of the vertex's cell by an atomic addition: counting (the
+// cursor starts at zero) or placing (the cursor starts at the cell's start, and the vertex's place goes to its slot).
 template <class T>
-struct MergeGridCount {
+struct MergeGridPlace {
   BidirectionalBand<T> band;
+  bool write;  // false: count only
   PT_HD void operator()(u32 pixel) const {
     const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);
-    for (u32 i = 0; i < band.light_counts[pixel]; ++i)
-      if (mergeable(vertices[i])) atomic_fetch_add(&band.grid.cursor[merge_cell_of(band.grid, vertices[i].at.p)], 1u);
-  }
-};
-
-template <class T>
-struct MergeGridFill {
-  BidirectionalBand<T> band;
-  PT_HD void operator()(u32 pixel) const {
-    const Strided<LightVertex<T>> vertices = band.light_vertices_of(pixel);
-    for (u32 i = 0; i < band.light_counts[pixel]; ++i)
-      if (mergeable(vertices[i])) band.grid.entries[atomic_fetch_add(&band.grid.cursor[merge_cell_of(band.grid, vertices[i].at.p)], 1u)] = i * band.capacity + pixel;
+    for (u32 i = 0; i < band.light_counts[pixel]; ++i) {
+      if (!mergeable(vertices[i])) continue;
+      const u32 slot = atomic_fetch_add(&band.grid.cursor[merge_cell_of(band.grid, vertices[i].at.p)], 1u);
+      if (write) band.grid.entries[slot] = i * band.capacity + pixel;
+    }
   }
 };
 
