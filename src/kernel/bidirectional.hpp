@@ -184,12 +184,25 @@ PT_HD inline T merge_share_at(const SceneView<T>& scene, bool in_medium) {
   return in_medium ? T(0) : scene.params.merging.merge_share;
 }
 
-// merge_mis after scattering from a vertex (with reverse_mis and connect_mis not yet moved on): the strategies up to
-// it counted per merging, `out_share` the power of the new direction's cosine over its density and `reverse` that of
-// the reverse direction's density.
+// The running quantities of a subpath's weights after it scatters from a vertex light sampling serves into a direction
+// of density `pdf` at cosine `out_cosine`, the reverse direction having density `reverse_pdf` (Georgiev et al.'s
+// report, with merging's terms where a merging pass makes them). Both subpaths update them here.
 template <class T>
-PT_HD inline T merge_mis_after_scattering(const SceneView<T>& scene, bool in_medium, T out_share, T merge_mis, T reverse, T reverse_mis) {
-  return out_share * (merge_mis * reverse + reverse_mis * scene.params.merging.connect_share + (in_medium ? T(0) : T(1)));
+PT_HD inline void weights_after_scattering(const SceneView<T>& scene, bool in_medium, T out_cosine, T pdf, T reverse_pdf, T& reverse_mis, T& connect_mis,
+                                           T& merge_mis) {
+  const T out_share = mis_power(out_cosine / pdf), reverse = mis_power(reverse_pdf);
+  if (merging(scene))
+    merge_mis = out_share * (merge_mis * reverse + reverse_mis * scene.params.merging.connect_share + (in_medium ? T(0) : T(1)));
+  connect_mis = out_share * (connect_mis * reverse + reverse_mis + merge_share_at(scene, in_medium));
+  reverse_mis = mis_power(T(1) / pdf);
+}
+
+// The same after a specular choice (mirror, glass, fuzzy metal): no strategy ends at such a vertex.
+template <class T>
+PT_HD inline void weights_after_specular(const SceneView<T>& scene, T out_cosine, T& reverse_mis, T& connect_mis, T& merge_mis) {
+  reverse_mis = T(0);
+  connect_mis *= mis_power(out_cosine);
+  if (merging(scene)) merge_mis *= mis_power(out_cosine);
 }
 
 // ---- The camera seen from the scene ----
@@ -432,9 +445,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
       const T shading_in = abs(dot(at.normal, toward_light)), shading_out = abs(dot(at.normal, scatter.ray.direction));
       if (!(shading_out > T(0) && cosine > T(0))) break;
       throughput *= scatter.attenuation * (shading_in * out_cosine / (shading_out * cosine));
-      reverse_mis = T(0);
-      connect_mis *= mis_power(out_cosine);
-      if (merging(scene)) merge_mis *= mis_power(out_cosine);
+      weights_after_specular(scene, out_cosine, reverse_mis, connect_mis, merge_mis);
       ray = scatter.ray;
     } else {
       // Light tracing: the vertex seen through a point of the lens.
@@ -476,10 +487,7 @@ PT_HD inline u32 trace_light_subpath(const SceneView<T>& scene, const SampleRand
       const T out_cosine = vertex_cosine(at, in_medium, out);
       if (!(cosine > T(0))) break;
       throughput *= value.value * (out_cosine / (cosine * scatter.pdf));
-      if (merging(scene))
-        merge_mis = merge_mis_after_scattering(scene, in_medium, mis_power(out_cosine / scatter.pdf), merge_mis, mis_power(value.pdf), reverse_mis);
-      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(value.pdf) + reverse_mis + merge_share_at(scene, in_medium));
-      reverse_mis = mis_power(T(1) / scatter.pdf);
+      weights_after_scattering(scene, in_medium, out_cosine, scatter.pdf, value.pdf, reverse_mis, connect_mis, merge_mis);
       ray = scatter.ray;
     }
     if (params.roulette_depth > 0 && segments >= params.roulette_depth) {
@@ -722,14 +730,9 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
     if (scatter.pdf > T(0)) {
       const T reverse = bidirectional_evaluate(scene, material, at, scatter.ray.direction, -ray.direction).pdf;
-      if (merging(scene))
-        merge_mis = merge_mis_after_scattering(scene, in_medium, mis_power(out_cosine / scatter.pdf), merge_mis, mis_power(reverse), reverse_mis);
-      connect_mis = mis_power(out_cosine / scatter.pdf) * (connect_mis * mis_power(reverse) + reverse_mis + merge_share_at(scene, in_medium));
-      reverse_mis = mis_power(T(1) / scatter.pdf);
+      weights_after_scattering(scene, in_medium, out_cosine, scatter.pdf, reverse, reverse_mis, connect_mis, merge_mis);
     } else {
-      reverse_mis = T(0);
-      connect_mis *= mis_power(out_cosine);
-      if (merging(scene)) merge_mis *= mis_power(out_cosine);
+      weights_after_specular(scene, out_cosine, reverse_mis, connect_mis, merge_mis);
     }
     throughput *= scatter.attenuation;
     scatter_pdf = scatter.pdf;
@@ -910,6 +913,16 @@ struct BidirectionalCameraSubpaths {
   }
 };
 
+// What a camera vertex of pixel `pixel` of the band takes from the light vertices: its joins to the pixel's own, then,
+// in a merging pass, its merges with the grid's (the one sum both schedules add, in this order).
+template <class T>
+PT_HD inline Color<T> joined_radiance(const SceneView<T>& scene, const SampleRandom& random, const BidirectionalBand<T>& band, u32 pixel,
+                                      const CameraVertex<T>& vertex, u32& rays) {
+  Color<T> sum = connect_to_light_vertices(scene, random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
+  if (merging(scene)) sum += merge_light_vertices(scene, vertex, [&](u32 place) -> const LightVertex<T>& { return band.light_vertex_at(place); }, band.grid);
+  return sum;
+}
+
 // Stage 2, over the queue of camera vertices written: each joined to its pixel's light vertices. Where it is in the queue
 // does not matter: its sum goes to the vertex's own place.
 template <class T>
@@ -922,9 +935,7 @@ struct BidirectionalConnect {
     const u32 i = place / band.capacity, pixel = place % band.capacity;
     const SampleRandom random = path_random(scene.params, band.first_row * scene.params.width + pixel, sample);
     u32 rays = 0;
-    const CameraVertex<T>& vertex = band.camera_vertex(pixel, i);
-    Color<T> sum = connect_to_light_vertices(scene, random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
-    if (merging(scene)) sum += merge_light_vertices(scene, vertex, [&](u32 place) -> const LightVertex<T>& { return band.light_vertex_at(place); }, band.grid);
+    const Color<T> sum = joined_radiance(scene, random, band, pixel, band.camera_vertex(pixel, i), rays);
     band.connection(pixel, i) = ConnectionSum<T>{sum, rays};
   }
 };
@@ -1022,9 +1033,7 @@ struct VertexMergingCameraSample {
     u32 rays = band.direct[pixel].rays;  // the light subpath's
     Color<T> connected{};
     const Color<T> direct = trace_camera_subpath(scene, start.random, start.ray, rays, [&](const CameraVertex<T>& vertex) {
-      Color<T> sum = connect_to_light_vertices(scene, start.random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
-      sum += merge_light_vertices(scene, vertex, [&](u32 place) -> const LightVertex<T>& { return band.light_vertex_at(place); }, band.grid);
-      connected += sum;
+      connected += joined_radiance(scene, start.random, band, pixel, vertex, rays);
     });
     FilmPixel& target = film[static_cast<std::size_t>(band.first_row) * width + pixel];
     FilmPixel total = target;
