@@ -100,7 +100,7 @@ class BidirectionalIntegrator {
           }
           stage(kLightSubpaths,
                 [&] { device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s}); });
-          if (merge_radius_ > 0) stage(kMergeGrid, [&] { build_merge_grid(); });
+          if (merge_radius_ > 0) build_merge_grid();
           if (merging_in_one_launch_) {
             stage(kCameraSubpaths, [&] {
               device_.launch_image("launching the merging camera subpaths", width, rows, VertexMergingCameraSample<T>{scene_, band_, film_, s});
@@ -140,19 +140,24 @@ class BidirectionalIntegrator {
 
  private:
   // The grid of the band's light vertices (MergeGridPlace and MergeGridSort, kernel/bidirectional.hpp): the counts read back
-  // and summed here into each cell's start.
+  // and summed here into each cell's start. The reading waits outside the stage's timers (a device reads its timers
+  // when the host waits).
   void build_merge_grid() {
     const MergeGrid<T>& grid = band_.grid;
-    device_.clear(grid.cursor, grid.cells * sizeof(u32), "clearing the merging grid");
-    device_.launch("counting the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, false});
+    stage(kMergeGrid, [&] {
+      device_.clear(grid.cursor, grid.cells * sizeof(u32), "clearing the merging grid");
+      device_.launch("counting the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, false});
+    });
     device_.copy_to_host(cell_starts_.data(), grid.cursor, grid.cells * sizeof(u32), "reading the merging grid's counts");
     u32 total = 0;
     for (u32 c = 0; c < grid.cells; ++c) total += std::exchange(cell_starts_[c], total);
     cell_starts_[grid.cells] = total;
     device_.copy_to_device(grid.starts, cell_starts_.data(), (grid.cells + 1) * sizeof(u32), "copying the merging grid's starts");
     device_.copy_to_device(grid.cursor, cell_starts_.data(), grid.cells * sizeof(u32), "copying the merging grid's starts");
-    device_.launch("placing the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, true});
-    device_.launch("sorting the merging grid", grid.cells, MergeGridSort<T>{band_});
+    stage(kMergeGrid, [&] {
+      device_.launch("placing the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, true});
+      device_.launch("sorting the merging grid", grid.cells, MergeGridSort<T>{band_});
+    });
   }
 
   // Buffers for as many whole rows as `budget` bytes hold (at least one).
@@ -172,8 +177,10 @@ class BidirectionalIntegrator {
     const std::size_t capacity = static_cast<std::size_t>(band_rows_) * width;
     band_.capacity = static_cast<u32>(capacity);
     band_.light_vertices = allocate<LightVertex<T>>(capacity * light_slots);
-    band_.light_pixel_stride = device_.host() ? light_slots : 1;
-    band_.light_slot_stride = device_.host() ? static_cast<u32>(1) : static_cast<u32>(capacity);
+    // A pixel's light vertices together where one launch reads them pixel by pixel (the host's merging); slot by slot
+    // for the stages, whichever device runs them, so that the host's tests of the staged schedule read them as a GPU does.
+    band_.light_pixel_stride = merging_in_one_launch_ ? light_slots : 1;
+    band_.light_slot_stride = merging_in_one_launch_ ? static_cast<u32>(1) : static_cast<u32>(capacity);
     band_.direct = allocate<SampleResult<T>>(capacity);
     band_.light_counts = allocate<u32>(capacity);
     // (The band's rows are counted with the camera side's buffers either way: they set merging's pool of light subpaths.)

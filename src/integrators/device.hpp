@@ -39,7 +39,8 @@ struct ImageKernelProbe {
 //  - launch_image(what, width, height, kernel): kernel(x, y) for every pixel, asynchronously, in whatever order
 //    and grouping suits the device (tiles on a CPU, 2-D blocks on a GPU).
 //  - start_timer() / stop_timer(timer, &seconds): adds the time of the work queued in between to `seconds`, at
-//    the latest by the next synchronise() or copy_to_host().
+//    the latest by the next synchronise() or copy_to_host(); neither may come between the two (the device reads
+//    its timers there).
 //  - saturations(): fixed-point saturations counted in kernels so far (0 where kernels do not count them).
 template <class D>
 concept Device = requires(D& device, const D& view, void* pointer, const void* source, std::size_t bytes, const char* what, u32 count,

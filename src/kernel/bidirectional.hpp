@@ -843,8 +843,8 @@ struct ConnectionSum {
 };
 
 // The buffers of a band of rows: camera vertex i of every pixel side by side ([i][pixel], `capacity` pixels a row of
-// slots); light vertices so too on a GPU (neighbouring threads read neighbouring memory), each pixel's together on the
-// host (a pixel's connections read its own vertices one after the other).
+// slots); light vertices so too for the stages (on a GPU neighbouring threads read neighbouring memory), each pixel's
+// together for the host's one-launch merging (a pixel's connections read its own vertices one after the other).
 template <class T>
 struct BidirectionalBand {
   LightVertex<T>* light_vertices;    // kMaxLightVertices slots at most: (max_depth - 2)

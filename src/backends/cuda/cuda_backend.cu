@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -114,6 +115,7 @@ class CudaDevice {
       timings_.push_back(t);
     }
     check(cudaEventRecord(timings_[pending_].start), "recording an event");
+    timings_[pending_].seconds = nullptr;  // open until stopped
     return pending_++;
   }
   void stop_timer(Timer timer, double* seconds) {
@@ -134,6 +136,8 @@ class CudaDevice {
 
   void collect_timings() {
     for (std::size_t i = 0; i < pending_; ++i) {
+      // An open timer's stop event is stale or unrecorded: a host wait inside a timed span is the caller's error.
+      if (timings_[i].seconds == nullptr) throw std::logic_error("cuda: the host waited for the GPU inside a timed span of launches");
       check(cudaEventSynchronize(timings_[i].stop), "running a kernel");
       float milliseconds = 0;
       check(cudaEventElapsedTime(&milliseconds, timings_[i].start, timings_[i].stop), "timing a kernel");
