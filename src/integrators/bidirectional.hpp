@@ -100,7 +100,7 @@ class BidirectionalIntegrator {
           }
           stage(kLightSubpaths,
                 [&] { device_.launch_image("launching the light subpaths", width, rows, BidirectionalLightSubpaths<T>{scene_, band_, splats, s}); });
-          if (merge_radius_ > 0) build_merge_grid();
+          if (merge_radius_ > 0) stage(kMergeGrid, [&] { build_merge_grid(); });
           if (merging_in_one_launch_) {
             stage(kCameraSubpaths, [&] {
               device_.launch_image("launching the merging camera subpaths", width, rows, VertexMergingCameraSample<T>{scene_, band_, film_, s});
@@ -139,25 +139,18 @@ class BidirectionalIntegrator {
   }
 
  private:
-  // The grid of the band's light vertices (MergeGridPlace and MergeGridSort, kernel/bidirectional.hpp): the counts read back
-  // and summed here into each cell's start. The reading waits outside the stage's timers (a device reads its timers
-  // when the host waits).
+  // The grid of the band's light vertices, built on the device (MergeGridPlace, MergeGridScan and MergeGridSort,
+  // kernel/bidirectional.hpp).
   void build_merge_grid() {
     const MergeGrid<T>& grid = band_.grid;
-    stage(kMergeGrid, [&] {
-      device_.clear(grid.cursor, grid.cells * sizeof(u32), "clearing the merging grid");
-      device_.launch("counting the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, false});
-    });
-    device_.copy_to_host(cell_starts_.data(), grid.cursor, grid.cells * sizeof(u32), "reading the merging grid's counts");
-    u32 total = 0;
-    for (u32 c = 0; c < grid.cells; ++c) total += std::exchange(cell_starts_[c], total);
-    cell_starts_[grid.cells] = total;
-    device_.copy_to_device(grid.starts, cell_starts_.data(), (grid.cells + 1) * sizeof(u32), "copying the merging grid's starts");
-    device_.copy_to_device(grid.cursor, cell_starts_.data(), grid.cells * sizeof(u32), "copying the merging grid's starts");
-    stage(kMergeGrid, [&] {
-      device_.launch("placing the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, true});
-      device_.launch("sorting the merging grid", grid.cells, MergeGridSort<T>{band_});
-    });
+    using Scan = MergeGridScan<T>;
+    device_.clear(grid.cursor, grid.cells * sizeof(u32), "clearing the merging grid");
+    device_.launch("counting the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, false});
+    device_.launch("summing the merging grid's counts", grid.runs, Scan{grid, Scan::kRunSums});
+    device_.launch("summing the merging grid's counts", 1, Scan{grid, Scan::kRunStarts});
+    device_.launch("summing the merging grid's counts", grid.runs, Scan{grid, Scan::kCellStarts});
+    device_.launch("placing the light vertices to merge", band_.pixels, MergeGridPlace<T>{band_, true});
+    device_.launch("sorting the merging grid", grid.cells, MergeGridSort<T>{band_});
   }
 
   // Buffers for as many whole rows as `budget` bytes hold (at least one).
@@ -199,7 +192,8 @@ class BidirectionalIntegrator {
       grid.cursor = allocate<u32>(grid.cells);
       grid.entries = allocate<u32>(capacity * light_slots);
       grid.positions = allocate<Vec3<T>>(capacity * light_slots);
-      cell_starts_.assign(grid.cells + 1, 0);
+      grid.runs = std::max(grid.cells / kMergeGridRun, 1u);
+      grid.run_starts = allocate<u32>(grid.runs);
     }
   }
 
@@ -228,7 +222,6 @@ class BidirectionalIntegrator {
   u32 band_rows_ = 0, camera_slots_ = 0;  // rows a band holds (0: one kernel a sample); camera vertex slots a pixel
   double merge_radius_ = 0;                // the first pass's merging radius; 0: no merging
   bool merging_in_one_launch_ = false;     // merging's camera side: VertexMergingCameraSample instead of stages 1b to 3
-  std::vector<u32> cell_starts_;           // the merging grid's counts and starts, on the host
   std::array<double, kStages> seconds_{};
 };
 

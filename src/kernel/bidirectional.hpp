@@ -551,9 +551,14 @@ struct MergeGrid {
   u32* cursor;         // cells: while the grid is built, each cell's count, then where its next place goes
   u32* entries;        // the places
   Vec3<T>* positions;  // entry e's vertex's position, read before the vertex itself (most entries are not within reach)
+  u32* run_starts;     // runs: while the grid is built, where each run of cells starts in `entries` (MergeGridScan)
   u32 cells;           // a power of two
+  u32 runs;            // of kMergeGridRun cells each (one run where cells are fewer), a power of two
   T cell_size;         // twice the radius
 };
+
+// Cells a thread sums in turn while the cells' starts are formed from their counts.
+inline constexpr u32 kMergeGridRun = 256;
 
 // The cell of a point along one axis, kept within the range of a 32-bit integer.
 template <class T>
@@ -941,7 +946,7 @@ struct BidirectionalConnect {
 };
 
 // Between stage 1's two launches of a merging pass, the grid of the band's light vertices is built: each cell's vertices
-// counted (into grid.cursor: MergeGridPlace), the counts summed into starts on the host, each vertex's place written at its cell's
+// counted (into grid.cursor: MergeGridPlace), the counts summed into starts (MergeGridScan), each vertex's place written at its cell's
 // cursor (in whatever order the threads come), and each cell's list sorted, so that the grid is the same on every
 // device.
 // Both passes over the band's light vertices take a slot of the vertex's cell by an atomic addition: counting (the
@@ -990,6 +995,41 @@ struct MergeGridSort {
       }
     }
     for (u32 e = 0; e < n; ++e) grid.positions[grid.starts[cell] + e] = band.light_vertex_at(a[e]).at.p;
+  }
+};
+
+// The cells' starts, summed from their counts on the device (so that building the grid never waits for the host), in
+// three launches: `runs` threads each sum a run of cells; one thread turns the runs' sums into their starts; `runs`
+// threads each write their run's starts (and the cursors the places are written at). Integer sums: the same on every
+// device whatever the order of the threads.
+template <class T>
+struct MergeGridScan {
+  enum Step : u32 { kRunSums, kRunStarts, kCellStarts };
+  MergeGrid<T> grid;
+  Step step;
+  PT_HD void operator()(u32 run) const {
+    const u32 length = grid.cells / grid.runs, first = run * length;
+    if (step == kRunSums) {
+      u32 sum = 0;
+      for (u32 c = first; c < first + length; ++c) sum += grid.cursor[c];
+      grid.run_starts[run] = sum;
+    } else if (step == kRunStarts) {
+      u32 total = 0;
+      for (u32 r = 0; r < grid.runs; ++r) {
+        const u32 sum = grid.run_starts[r];
+        grid.run_starts[r] = total;
+        total += sum;
+      }
+      grid.starts[grid.cells] = total;
+    } else {
+      u32 start = grid.run_starts[run];
+      for (u32 c = first; c < first + length; ++c) {
+        const u32 count = grid.cursor[c];
+        grid.starts[c] = start;
+        grid.cursor[c] = start;
+        start += count;
+      }
+    }
   }
 };
 
