@@ -7,7 +7,8 @@
 # medians, in the order one-kernel, staged, staged, one-kernel); `vcm`: time to equal error of vcm, bdpt and the default
 # integrator on the caustic scenes, errors against references of 8,192 bdpt samples rendered here. `check` and
 # `sanitize` cover vcm too. Logs go to $OUT.
-# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench] [schedules] [vcm]   (the first three when no
+# `vcm-debug`: compute-sanitizer on vcm's known failure (the Cornell scenes) and the depths it appears at.
+# Usage: bash tools/device/bidirectional.sh [check] [sanitize] [bench] [schedules] [vcm] [vcm-debug]   (the first three when no
 # argument is given)
 set -uo pipefail
 export LD_LIBRARY_PATH="$PWD/out/device/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
@@ -58,7 +59,25 @@ if [[ $steps == *bench* ]]; then
     -- --backend cuda | tee "$OUT/bdpt-efficiency.md"
 fi
 
-if [[ $steps == *vcm* ]]; then
+if [[ " $steps " == *" vcm-debug "* ]]; then
+  # vcm's known failure on the Cornell scenes (docs/light-transport.md): which launch, and whether the depth matters.
+  for case in "cornell-box 48 48 64" "cornell-glass 400 240 2"; do
+    read -r scene width height spp <<<"$case"
+    echo "== compute-sanitizer memcheck, vcm, $scene ${width}x$height, $spp spp"
+    CUDA_LAUNCH_BLOCKING=1 timeout 240 compute-sanitizer --tool memcheck --print-limit 3 "$PT" render "scenes/$scene.json" --backend cuda --integrator vcm \
+      --width "$width" --height "$height" --spp "$spp" -q -o "$OUT/vcm-debug.pfm" >"$OUT/vcm-debug-$scene.log" 2>&1
+    echo "exit $?"
+    head -30 "$OUT/vcm-debug-$scene.log"
+  done
+  for scene in cornell-box cornell-glass light-through-gap cornell-smoke caustics; do
+    for depth in 16 50; do
+      "$PT" render "scenes/$scene.json" --backend cuda --integrator vcm --depth $depth --width 160 --height 90 --spp 64 -q -o "$OUT/vcm-debug.pfm" 2>&1 | tail -1
+      echo "$scene depth $depth: exit ${PIPESTATUS[0]}"
+    done
+  done
+fi
+
+if [[ " $steps " == *" vcm "* ]]; then
   echo "== time to equal error (squared error against 8,192 bdpt samples), vcm and bdpt against the default integrator (CUDA)"
   mkdir -p "$OUT/references"
   for scene in caustics cornell-glass light-through-gap; do
