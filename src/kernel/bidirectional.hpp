@@ -852,7 +852,7 @@ struct ConnectionSum {
 // together for the host's one-launch merging (a pixel's connections read its own vertices one after the other).
 template <class T>
 struct BidirectionalBand {
-  LightVertex<T>* light_vertices;    // kMaxLightVertices slots at most: (max_depth - 2)
+  LightVertex<T>* light_vertices;    // (max_depth - 2) slots a pixel; merging, (max_depth - 1)
   CameraVertex<T>* camera_vertices;  // (max_depth - 1) slots
   ConnectionSum<T>* connections;     // one a camera vertex
   SampleResult<T>* direct;           // what the camera subpath found by itself, and all the rays traced in stage 1
@@ -946,9 +946,9 @@ struct BidirectionalConnect {
 };
 
 // Between stage 1's two launches of a merging pass, the grid of the band's light vertices is built: each cell's vertices
-// counted (into grid.cursor: MergeGridPlace), the counts summed into starts (MergeGridScan), each vertex's place written at its cell's
-// cursor (in whatever order the threads come), and each cell's list sorted, so that the grid is the same on every
-// device.
+// counted (into grid.cursor: MergeGridPlace), the counts summed into starts (MergeGridScan), each vertex's place written
+// at its cell's cursor (in whatever order the threads come), and each cell's list sorted, so that the grid is the same
+// on every device.
 // Both passes over the band's light vertices take a slot of the vertex's cell by an atomic addition: counting (the
 // cursor starts at zero) or placing (the cursor starts at the cell's start, and the vertex's place goes to its slot).
 template <class T>
