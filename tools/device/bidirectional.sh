@@ -61,13 +61,15 @@ fi
 
 if [[ " $steps " == *" vcm-debug "* ]]; then
   # vcm's known failure on the Cornell scenes (docs/light-transport.md): which launch, and whether the depth matters.
-  for case in "cornell-box 48 48 64" "cornell-glass 400 240 2"; do
-    read -r scene width height spp <<<"$case"
-    echo "== compute-sanitizer memcheck, vcm, $scene ${width}x$height, $spp spp"
-    CUDA_LAUNCH_BLOCKING=1 timeout 240 compute-sanitizer --tool memcheck --print-limit 3 "$PT" render "scenes/$scene.json" --backend cuda --integrator vcm \
-      --width "$width" --height "$height" --spp "$spp" -q -o "$OUT/vcm-debug.pfm" >"$OUT/vcm-debug-$scene.log" 2>&1
+  # memcheck names the launch and the address; initcheck finds reads of device memory never written (cudaMalloc's
+  # memory is not cleared, the host's fresh pages are).
+  for case in "memcheck cornell-box 48 48 64" "memcheck cornell-glass 400 240 2" "initcheck cornell-box 48 48 16"; do
+    read -r tool scene width height spp <<<"$case"
+    echo "== compute-sanitizer $tool, vcm, $scene ${width}x$height, $spp spp"
+    CUDA_LAUNCH_BLOCKING=1 timeout 240 compute-sanitizer --tool "$tool" --print-limit 3 "$PT" render "scenes/$scene.json" --backend cuda --integrator vcm \
+      --width "$width" --height "$height" --spp "$spp" -q -o "$OUT/vcm-debug.pfm" >"$OUT/vcm-debug-$tool-$scene.log" 2>&1
     echo "exit $?"
-    head -30 "$OUT/vcm-debug-$scene.log"
+    head -30 "$OUT/vcm-debug-$tool-$scene.log"
   done
   # Both failing scenes have rotated solid boxes and none of those that render has: the Cornell box without its boxes.
   python3 -c 'import json, sys; d = json.load(open("scenes/cornell-box.json")); d["objects"] = [o for o in d["objects"] if o["type"] != "box"]; json.dump(d, open(sys.argv[1], "w"))' \
