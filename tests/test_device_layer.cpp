@@ -1,15 +1,19 @@
 // The integrators written once over the device interface: their GPU paths (one sample per megakernel launch,
-// batches between synchronisations, the large wavefront pool) run here on a device that computes on the CPU but
-// says it is not the host, and must give the CPU backend's film bit for bit, with the launches the GPU path makes.
+// batches between synchronisations, the large wavefront pool, bdpt's and vcm's stages) run here on a device that
+// computes on the CPU but says it is not the host, and must give the CPU backend's film bit for bit, with the launches
+// the GPU path makes. Like a GPU it hands out memory that is not cleared, and it refuses a host wait inside a timed
+// span (a GPU's timers are read there).
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "backends/cpu/cpu_device.hpp"
 #include "backends/device_backend.hpp"
+#include "loading/scene_loader.hpp"
 #include "test_support.hpp"
 
 namespace pt {
@@ -30,12 +34,20 @@ class CountingGpuLikeDevice {
   Integrator preferred_integrator() const { return Integrator::kWavefront; }
   bool memory_on_host() const { return false; }
   bool times_on_device() const { return true; }
-  void* allocate(std::size_t bytes, const char* what) { return cpu_.allocate(bytes, what); }
+  void* allocate(std::size_t bytes, const char* what) {
+    void* memory = cpu_.allocate(bytes, what);
+    std::memset(memory, 0xA5, bytes);  // what a GPU's fresh memory may hold: not zeros
+    return memory;
+  }
   void release(void* pointer) { cpu_.release(pointer); }
   void copy_to_device(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_device(to, from, bytes, what); }
-  void copy_to_host(void* to, const void* from, std::size_t bytes, const char* what) { cpu_.copy_to_host(to, from, bytes, what); }
+  void copy_to_host(void* to, const void* from, std::size_t bytes, const char* what) {
+    refuse_a_wait_inside_a_timer(what);
+    cpu_.copy_to_host(to, from, bytes, what);
+  }
   void clear(void* to, std::size_t bytes, const char* what) { cpu_.clear(to, bytes, what); }
   void synchronise(const char* what) {
+    refuse_a_wait_inside_a_timer(what);
     ++counts_->synchronisations;
     cpu_.synchronise(what);
   }
@@ -52,12 +64,21 @@ class CountingGpuLikeDevice {
   using Timer = CpuDevice::Timer;
   Timer start_timer() {
     ++counts_->timers;
+    ++open_timers_;
     return cpu_.start_timer();
   }
-  void stop_timer(Timer timer, double* seconds) { cpu_.stop_timer(timer, seconds); }
+  void stop_timer(Timer timer, double* seconds) {
+    --open_timers_;
+    cpu_.stop_timer(timer, seconds);
+  }
   u64 saturations() const { return cpu_.saturations(); }
 
  private:
+  void refuse_a_wait_inside_a_timer(const char* what) const {
+    if (open_timers_ != 0) throw std::logic_error(std::string("the host waited inside a timed span: ") + what);
+  }
+
+  int open_timers_ = 0;
   CpuDevice cpu_;
   Counts* counts_;
 };
@@ -103,6 +124,26 @@ TEST(DeviceLayer, GpuWavefrontPathRunsStagesAndMatchesTheCpuBackend) {
   EXPECT_EQ(counts.timers, counts.item_launches);  // every stage timed
   EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kWavefront)));
   EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {4}, Integrator::kMegakernel)));
+}
+
+// bdpt's and vcm's GPU paths: with a light that starts subpaths the stages (light subpaths, the merging grid, camera
+// subpaths, connections, gathering) over bands of rows, light vertices slot by slot; the CPU backend's film bit for bit
+// (one kernel a sample for bdpt, one launch for vcm's camera side). The Cornell box with its boxes and the glass sphere.
+TEST(DeviceLayer, GpuBidirectionalPathsMatchTheCpuBackend) {
+  for (const char* name : {"cornell-box", "caustics"}) {
+    const SceneDescription description = load_scene_file(test::scene_path(std::string(name) + ".json"));
+    RenderSettings settings = description.render;
+    settings.width = 40;
+    settings.height = 24;
+    settings.max_depth = 6;
+    const FlatScene<float> scene = flatten_scene<float>(description, settings);
+    for (Integrator integrator : {Integrator::kBidirectional, Integrator::kVertexMerging}) {
+      CountingGpuLikeDevice::Counts counts;
+      const std::vector<FilmPixel> film = render_gpu_like(scene, integrator, {1, 2}, counts);
+      EXPECT_GE(counts.item_launches, 3u * 3) << name << ": connections, gathering and splats at every sample";
+      EXPECT_TRUE(test::same_film(film, test::render_film(scene, 2, {3}, integrator))) << name << ", " << integrator_name(integrator);
+    }
+  }
 }
 
 // The bytes a path costs in flight, derived from the field lists, are what the allocation takes per pool slot:
