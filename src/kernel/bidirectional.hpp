@@ -584,14 +584,19 @@ PT_HD inline bool mergeable(const LightVertex<T>& vertex) {
   return !vertex.in_medium;
 }
 
+// The buffers of a band of rows (below, with the staged schedule): merging reads the grid and the light vertices its
+// places name.
+template <class T>
+struct BidirectionalBand;
+
 // The radiance camera vertex `x` takes from the light vertices within the radius (at most 2 x 2 x 2 cells, each cell's
 // list read once however many of them share a hash): each vertex's throughput, scattered towards the camera by x's
 // material, over the disc's area and the number of light subpaths (MergeParams::normalization), weighed against
 // joining and merging at the other vertices of the same path. The light vertex's throughput is power per area across
 // its arrival direction; x's material value holds the shading cosine, so it is divided by the geometric one.
-// `vertex_at(place)` gives the light vertex of a place in the grid's lists.
-template <class T, class VertexAt>
-PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const CameraVertex<T>& x, const VertexAt& vertex_at, const MergeGrid<T>& grid) {
+template <class T>
+PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const CameraVertex<T>& x, const BidirectionalBand<T>& band) {
+  const MergeGrid<T>& grid = band.grid;
   Color<T> sum{};
   if (x.in_medium) return sum;
   const MergeParams<T>& merge = scene.params.merging;
@@ -608,7 +613,7 @@ PT_NOINLINE PT_HD Color<T> merge_light_vertices(const SceneView<T>& scene, const
     if (seen) continue;
     for (u32 e = grid.starts[cell]; e < grid.starts[cell + 1]; ++e) {
       if (!(length_squared(grid.positions[e] - x.at.p) <= radius2)) continue;
-      const LightVertex<T>& y = vertex_at(grid.entries[e]);
+      const LightVertex<T>& y = band.light_vertex_at(grid.entries[e]);
       if (y.segments + x.segments > scene.params.max_depth) continue;
       const ScatterValue<T> here = bidirectional_evaluate(scene, material, x.at, x.toward_camera, y.toward_light);
       if (!(max_component(here.value) > T(0))) continue;
@@ -924,7 +929,7 @@ template <class T>
 PT_HD inline Color<T> joined_radiance(const SceneView<T>& scene, const SampleRandom& random, const BidirectionalBand<T>& band, u32 pixel,
                                       const CameraVertex<T>& vertex, u32& rays) {
   Color<T> sum = connect_to_light_vertices(scene, random, vertex, band.light_vertices_of(pixel), band.light_counts[pixel], rays);
-  if (merging(scene)) sum += merge_light_vertices(scene, vertex, [&](u32 place) -> const LightVertex<T>& { return band.light_vertex_at(place); }, band.grid);
+  if (merging(scene)) sum += merge_light_vertices(scene, vertex, band);
   return sum;
 }
 
