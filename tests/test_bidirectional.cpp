@@ -241,6 +241,36 @@ TEST(VertexMerging, LeavesLessNoiseThanBdptWhereLightAndCameraAreBehindGlass) {
   EXPECT_GT(bdpt / vcm, 2.0);
 }
 
+// A pane of glass before the camera reflects a large lamp behind it (Schlick's 4 %) and lets the black beyond through:
+// nothing else lights anything, so every strategy but the camera subpath's own (s = 0) is empty. Choosing a way at the
+// glass, as the path tracer does, sees the lamp on one sample in twenty-five at full brightness; the camera subpath
+// splits what it meets next between both ways, so every sample sees the reflection at 4 % (its variance comes only from
+// the angle's change over a pixel). Same mean, per-sample variance orders of magnitude lower (about 1 without the split).
+TEST(Bidirectional, SeesALampInGlassOnEverySample) {
+  const std::string json = R"({
+    "render": {"width": 24, "height": 24, "samples_per_pixel": 64, "max_depth": 8},
+    "camera": {"look_from": [0, 0, -5], "look_at": [0, 0, 0], "vertical_fov": 30},
+    "background": {"type": "constant", "color": [0, 0, 0]},
+    "objects": [
+      {"type": "quad", "corner": [-3, -3, 0], "u": [6, 0, 0], "v": [0, 6, 0], "material": {"type": "dielectric", "ior": 1.5}},
+      {"type": "quad", "corner": [-20, -20, -8], "u": [40, 0, 0], "v": [0, 40, 0], "material": {"type": "diffuse_light", "emission": [10, 10, 10]}}
+    ]})";
+  const SceneDescription scene = test::parse(json);
+  const FlatScene<float> flat = flatten_scene<float>(scene, scene.render);
+  const test::PixelStatistics bdpt = statistics<float>("cpu", Integrator::kBidirectional, flat);
+  const test::PixelStatistics path = statistics<float>("cpu", Integrator::kMegakernel, flat);
+  double bdpt_mean = 0, path_mean = 0;
+  for (double v : bdpt.mean) bdpt_mean += v / static_cast<double>(bdpt.mean.size());
+  for (double v : path.mean) path_mean += v / static_cast<double>(path.mean.size());
+  // The path tracer's image mean has the standard error of all its samples together.
+  const double path_error = std::sqrt(mean_variance(path) / (static_cast<double>(path.mean.size()) * path.samples));
+  std::printf("lamp in glass: image mean bdpt %.5f, path tracer %.5f +- %.5f; per-sample variance, path tracer / bdpt = %.3g\n", bdpt_mean, path_mean,
+              path_error, mean_variance(path) / mean_variance(bdpt));
+  EXPECT_NEAR(bdpt_mean, 0.04 * 10, 0.01);  // Schlick's reflectance near normal incidence: 4 % of the lamp
+  EXPECT_NEAR(bdpt_mean, path_mean, 5 * path_error);
+  EXPECT_GT(mean_variance(path) / mean_variance(bdpt), 100.0);
+}
+
 // Splats are summed as integers and folded into the film sample by sample: the film is the same bit for bit on one
 // thread in one pass as on two threads in passes of 1 and 3 samples.
 TEST(Bidirectional, ImagesDoNotDependOnThreadsOrPasses) {

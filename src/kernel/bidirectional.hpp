@@ -679,6 +679,74 @@ PT_NOINLINE PT_HD Color<T> connect_to_light(const SceneView<T>& scene, const Sam
          (weight * transmittance(optical_depth) / direct);
 }
 
+// What the camera subpath finds by itself (s = 0) where its segment `ray` leaves the scene: the background, weighed
+// against light sampling from the vertex the segment left (`scatter_pdf`: the density it was drawn with; 0 for the camera
+// ray and after a specular choice, from where light sampling cannot make it), as the path tracer weighs it.
+template <class T>
+PT_HD inline Color<T> camera_meets_background(const SceneView<T>& scene, const Ray<T>& ray, const Color<T>& throughput, T scatter_pdf) {
+  T weight = T(1);
+  if (scene.lights.background != kNoLight && scatter_pdf > T(0))
+    weight = scattered_light_weight(scatter_pdf, background_light_density(scene.lights.entries[scene.lights.background].pmf,
+                                                                          background_pdf(scene.background, ray.direction)));
+  return throughput * background_radiance(scene.background, ray.direction) * weight;
+}
+
+// The running quantities of the camera subpath's weights at the vertex its segment reaches, `distance` long (in the
+// weights' unit), arriving at `cosine` to the surface.
+template <class T>
+PT_HD inline void weights_at_camera_vertex(const SceneView<T>& scene, T distance, T cosine, T& reverse_mis, T& connect_mis, T& merge_mis) {
+  reverse_mis *= mis_power(distance * distance);
+  if (cosine > T(0)) {
+    reverse_mis /= mis_power(cosine);
+    connect_mis /= mis_power(cosine);
+    if (merging(scene)) merge_mis /= mis_power(cosine);
+  }
+}
+
+// Emission the camera subpath meets (s = 0) at `at`, where its segment `ray` (of bounce `bounce`) ends: weighed against
+// light sampling from the previous vertex and against the light subpaths that start at this point.
+template <class T>
+PT_HD inline Color<T> camera_meets_emission(const SceneView<T>& scene, const Ray<T>& ray, const Hit<T>& hit, const Material<T>& material,
+                                            const SurfacePoint<T>& at, T cosine, T distance, T reverse_mis, T connect_mis, u32 bounce,
+                                            const Color<T>& throughput) {
+  const Color<T> emitted = material_emitted(material, at, scene.textures, scene.texture_data);
+  if (!(max_component(emitted) > T(0))) return Color<T>{};
+  T weight = T(1);
+  const u32 entry = scene.lights.primitive_light[hit.primitive];
+  if (bounce > 0 && entry != kNoLight) {
+    const Ray<T> from_previous{ray.origin, ray.direction, ray.time};
+    const T direct = light_pdf(scene, entry, from_previous, hit, at) * cosine / (distance * distance);
+    const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(cosine);
+    weight = T(1) / (T(1) + mis_power_times(direct, reverse_mis) + mis_power_times(emission, connect_mis));
+  }
+  return throughput * emitted * weight;
+}
+
+// Glass splits the emission the camera subpath meets next (s = 0) between its two ways on (dielectric_ways): the way the
+// subpath takes meets it at its next vertex, weighed by that way's share; the other way is traced here for the emission
+// it meets alone, weighed by its own share (`throughput` holds it). The expected value is the same, and every sample
+// that reaches glass sees what the glass reflects, where the choice of a way would show it to a few: Schlick's
+// reflectance is 4 % at normal incidence, so a small bright lamp seen in glass was a rare, very bright sample (it made
+// 86 % of vcm's squared error on scenes/caustics.json). `reverse_mis`, `connect_mis` and `merge_mis` are the weights'
+// running quantities at the glass, `out_cosine` the other way's cosine there; one ray more for each glass vertex.
+template <class T>
+PT_NOINLINE PT_HD Color<T> camera_emission_other_way(const SceneView<T>& scene, const SampleRandom& random, const SurfacePoint<T>& at,
+                                                     const Vec3<T>& direction, T time, T out_cosine, T reverse_mis, T connect_mis, T merge_mis,
+                                                     u32 bounce, const Color<T>& throughput, u32& rays) {
+  weights_after_specular(scene, out_cosine, reverse_mis, connect_mis, merge_mis);
+  const Ray<T> ray = spawn_ray(at, direction, time);
+  Hit<T> hit{};
+  ++rays;
+  if (!bidirectional_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, bounce + 1}, hit, largest<T>()))
+    return camera_meets_background(scene, ray, throughput, T(0));
+  const Material<T>& material = scene.materials[material_of_hit(scene.primitives[hit.primitive], scene.meshes, hit)];
+  if (!std::holds_alternative<DiffuseLight<T>>(material)) return Color<T>{};  // the only material that emits
+  const SurfacePoint<T> on_light = bidirectional_describe(scene, ray, hit, material, true);
+  const T cosine = vertex_cosine(on_light, false, ray.direction), distance = to_unit(scene, hit.t);
+  weights_at_camera_vertex(scene, distance, cosine, reverse_mis, connect_mis, merge_mis);
+  return camera_meets_emission(scene, ray, hit, material, on_light, cosine, distance, reverse_mis, connect_mis, bounce + 1, throughput);
+}
+
 // The camera subpath of one sample, from camera ray `ray`: returns what it finds by itself (s = 0: emission and the
 // background met) and by light sampling (s = 1), and hands each vertex where light vertices can be joined to
 // `connect(const CameraVertex<T>&)`, in order along the path.
@@ -690,16 +758,13 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
   Color<T> throughput = Color<T>::splat(T(1));
   T reverse_mis = primary.density > T(0) ? mis_power(T(1) / primary.density) : T(0);
   T connect_mis = T(0), merge_mis = T(0);
-  T scatter_pdf = T(0);  // of the last direction, 0 for the camera ray and specular choices (as the path tracer keeps it)
+  T scatter_pdf = T(0);     // of the last direction, 0 for the camera ray and specular choices (as the path tracer keeps it)
+  T emission_share = T(1);  // of what the next vertex meets by itself: the way's share where glass split it
   for (u32 bounce = 0; bounce < params.max_depth; ++bounce) {
     Hit<T> hit{};
     ++rays;
     if (!bidirectional_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, bounce}, hit, largest<T>())) {
-      T weight = T(1);
-      if (scene.lights.background != kNoLight && scatter_pdf > T(0))
-        weight = scattered_light_weight(scatter_pdf, background_light_density(scene.lights.entries[scene.lights.background].pmf,
-                                                                              background_pdf(scene.background, ray.direction)));
-      radiance += throughput * background_radiance(scene.background, ray.direction) * weight;
+      radiance += camera_meets_background(scene, ray, throughput * emission_share, scatter_pdf);
       break;
     }
     const Primitive<T>& primitive = scene.primitives[hit.primitive];
@@ -708,26 +773,9 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     const bool in_medium = hit_in_medium(scene, hit);
     const T cosine = vertex_cosine(at, in_medium, ray.direction);
     const T distance = to_unit(scene, hit.t);
-    reverse_mis *= mis_power(distance * distance);
-    if (cosine > T(0)) {
-      reverse_mis /= mis_power(cosine);
-      connect_mis /= mis_power(cosine);
-      if (merging(scene)) merge_mis /= mis_power(cosine);
-    }
-    // Emission met by the camera subpath (s = 0): weighed against light sampling from the previous vertex and against
-    // the light subpaths that start at this point.
-    const Color<T> emitted = material_emitted(material, at, scene.textures, scene.texture_data);
-    if (max_component(emitted) > T(0)) {
-      T weight = T(1);
-      const u32 entry = scene.lights.primitive_light[hit.primitive];
-      if (bounce > 0 && entry != kNoLight) {
-        const Ray<T> from_previous{ray.origin, ray.direction, ray.time};
-        const T direct = light_pdf(scene, entry, from_previous, hit, at) * cosine / (distance * distance);
-        const T emission = emission_area_density(scene, entry, hit, ray.time) * emission_direction_density(cosine);
-        weight = T(1) / (T(1) + mis_power_times(direct, reverse_mis) + mis_power_times(emission, connect_mis));
-      }
-      radiance += throughput * emitted * weight;
-    }
+    weights_at_camera_vertex(scene, distance, cosine, reverse_mis, connect_mis, merge_mis);
+    radiance += camera_meets_emission(scene, ray, hit, material, at, cosine, distance, reverse_mis, connect_mis, bounce, throughput * emission_share);
+    emission_share = T(1);
     if (bounce + 1 >= params.max_depth) break;
     if (material_samples_lights(material)) {
       if (scene.lights.count > 0)
@@ -737,6 +785,14 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     Scatter<T> scatter;
     const BounceRandom bounce_random{&random, bounce};
     if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) break;
+    if (const auto* glass = std::get_if<Dielectric<T>>(&material)) {
+      const DielectricWays<T> ways = dielectric_ways(*glass, ray, at, bounce_random);
+      if (ways.other_share > T(0)) {
+        radiance += camera_emission_other_way(scene, random, at, ways.other, ray.time, vertex_cosine(at, false, ways.other), reverse_mis, connect_mis,
+                                              merge_mis, bounce, throughput * scatter.attenuation * ways.other_share, rays);
+        emission_share = ways.taken_share;
+      }
+    }
     const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
     if (scatter.pdf > T(0)) {
       const T reverse = bidirectional_evaluate(scene, material, at, scatter.ray.direction, -ray.direction).pdf;

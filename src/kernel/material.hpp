@@ -201,6 +201,28 @@ PT_HD inline bool leaves_on_the_wrong_side(const MetallicRoughness<T>& m, const 
   return at.front_face ? !(side > T(0)) : !(side < T(0));
 }
 
+// Glass's two ways on from a surface point, reflected and refracted, and the one a scattering takes: reflected with
+// probability Schlick's reflectance, else refracted (reflected always under total internal reflection, where the other
+// way's share is 0). Each way's value is the tint times its share, so the way taken carries the tint alone.
+template <class T>
+struct DielectricWays {
+  Vec3<T> taken, other;  // unit directions
+  T taken_share, other_share;
+};
+
+template <class T>
+PT_HD inline DielectricWays<T> dielectric_ways(const Dielectric<T>& m, const Ray<T>& in, const SurfacePoint<T>& at, const BounceRandom& random) {
+  const T eta = at.front_face ? T(1) / m.ior : m.ior;
+  const T cos_i = min(-dot(in.direction, at.normal), T(1));
+  const T sin_t2 = eta * eta * (T(1) - cos_i * cos_i);
+  const Vec3<T> reflected = normalize(reflect(in.direction, at.normal));
+  if (sin_t2 > T(1)) return DielectricWays<T>{reflected, reflected, T(1), T(0)};
+  const T reflectance = schlick_reflectance(cos_i, eta);
+  const Vec3<T> refracted = normalize(refract(in.direction, at.normal, eta, cos_i));
+  if (reflectance > random.template uniform<T>(kDimScatterChoice)) return DielectricWays<T>{reflected, refracted, reflectance, T(1) - reflectance};
+  return DielectricWays<T>{refracted, reflected, T(1) - reflectance, reflectance};
+}
+
 // Samples the next direction. Returns false when the material absorbs the ray (or only emits).
 template <class T>
 PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in, const SurfacePoint<T>& at, const Texture<T>* textures,
@@ -237,15 +259,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       return dot(direction, at.normal) > T(0);
     }
     PT_HD bool operator()(const Dielectric<T>& m) const {
-      const T eta = at.front_face ? T(1) / m.ior : m.ior;
-      const T cos_i = min(-dot(in.direction, at.normal), T(1));
-      const T sin_t2 = eta * eta * (T(1) - cos_i * cos_i);
-      Vec3<T> direction;
-      if (sin_t2 > T(1) || schlick_reflectance(cos_i, eta) > random.template uniform<T>(kDimScatterChoice))
-        direction = reflect(in.direction, at.normal);
-      else
-        direction = refract(in.direction, at.normal, eta, cos_i);
-      out = {m.tint, spawn_ray(at, normalize(direction), in.time), T(0)};
+      out = {m.tint, spawn_ray(at, dielectric_ways(m, in, at, random).taken, in.time), T(0)};
       return true;
     }
     PT_HD bool operator()(const DiffuseLight<T>&) const { return false; }
