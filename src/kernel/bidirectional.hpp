@@ -139,7 +139,12 @@ struct Strided {
   u32 stride;
   PT_HD V& operator[](u32 i) const { return first[static_cast<std::size_t>(i) * stride]; }
   // The same vertices, read only (what the connections take).
-  PT_HD operator Strided<const V>() const { return {first, stride}; }
+  // (A template, so that Strided<const V> has no conversion to itself, which nvcc warns of.)
+  template <class U>
+    requires(std::is_same_v<U, V> && !std::is_const_v<U>)
+  PT_HD operator Strided<const U>() const {
+    return {first, stride};
+  }
 };
 
 // A camera subpath vertex where connections to light vertices are made (a material light sampling serves), with what
