@@ -922,7 +922,7 @@ bool closest_hit_brute_force(const FlatScene<T>& scene, const Ray<T>& ray, const
       // Every triangle of the mesh, in its space.
       const Ray<T> local = instance_ray(view.meshes, *instance, ray);
       const MeshRecord& mesh = scene.meshes[instance->mesh];
-      MeshLeaf<T> leaf{view.meshes, mesh.first_vertex, local, hit};
+      MeshLeaf<T> leaf{view.meshes, mesh.first_vertex, local, hit, T(0)};  // nothing blocks: the closest hit
       if (leaf(mesh.first_triangle, mesh.triangle_count, closest)) {
         hit.primitive = i;
         found = true;

@@ -791,7 +791,7 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     const BounceRandom bounce_random{&random, bounce};
     if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) break;
     if (const auto* glass = std::get_if<Dielectric<T>>(&material)) {
-      const DielectricWays<T> ways = dielectric_ways(*glass, ray, at, bounce_random);
+      const DielectricWays<T> ways = dielectric_ways(*glass, ray, at, bounce_random, true);
       if (ways.other_share > T(0)) {
         radiance += camera_emission_other_way(scene, random, at, ways.other, ray.time, vertex_cosine(at, false, ways.other), reverse_mis, connect_mis,
                                               merge_mis, bounce, throughput * scatter.attenuation * ways.other_share, rays);

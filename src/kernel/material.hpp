@@ -203,7 +203,8 @@ PT_HD inline bool leaves_on_the_wrong_side(const MetallicRoughness<T>& m, const 
 
 // Glass's two ways on from a surface point, reflected and refracted, and the one a scattering takes: reflected with
 // probability Schlick's reflectance, else refracted (reflected always under total internal reflection, where the other
-// way's share is 0). Each way's value is the tint times its share, so the way taken carries the tint alone.
+// way's share is 0). Each way's value is the tint times its share, so the way taken carries the tint alone. The other
+// way's direction is made only where `both` asks for it (the path tracer takes one way; `other` is then `taken`).
 template <class T>
 struct DielectricWays {
   Vec3<T> taken, other;  // unit directions
@@ -211,16 +212,20 @@ struct DielectricWays {
 };
 
 template <class T>
-PT_HD inline DielectricWays<T> dielectric_ways(const Dielectric<T>& m, const Ray<T>& in, const SurfacePoint<T>& at, const BounceRandom& random) {
+PT_HD inline DielectricWays<T> dielectric_ways(const Dielectric<T>& m, const Ray<T>& in, const SurfacePoint<T>& at, const BounceRandom& random,
+                                               bool both = false) {
   const T eta = at.front_face ? T(1) / m.ior : m.ior;
   const T cos_i = min(-dot(in.direction, at.normal), T(1));
   const T sin_t2 = eta * eta * (T(1) - cos_i * cos_i);
-  const Vec3<T> reflected = normalize(reflect(in.direction, at.normal));
-  if (sin_t2 > T(1)) return DielectricWays<T>{reflected, reflected, T(1), T(0)};
+  if (sin_t2 > T(1)) {
+    const Vec3<T> reflected = normalize(reflect(in.direction, at.normal));
+    return DielectricWays<T>{reflected, reflected, T(1), T(0)};
+  }
   const T reflectance = schlick_reflectance(cos_i, eta);
-  const Vec3<T> refracted = normalize(refract(in.direction, at.normal, eta, cos_i));
-  if (reflectance > random.template uniform<T>(kDimScatterChoice)) return DielectricWays<T>{reflected, refracted, reflectance, T(1) - reflectance};
-  return DielectricWays<T>{refracted, reflected, T(1) - reflectance, reflectance};
+  const bool reflects = reflectance > random.template uniform<T>(kDimScatterChoice);
+  const Vec3<T> taken = normalize(reflects ? reflect(in.direction, at.normal) : refract(in.direction, at.normal, eta, cos_i));
+  const Vec3<T> other = !both ? taken : normalize(reflects ? refract(in.direction, at.normal, eta, cos_i) : reflect(in.direction, at.normal));
+  return DielectricWays<T>{taken, other, reflects ? reflectance : T(1) - reflectance, reflects ? T(1) - reflectance : reflectance};
 }
 
 // Samples the next direction. Returns false when the material absorbs the ray (or only emits).
