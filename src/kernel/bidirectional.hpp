@@ -745,7 +745,7 @@ PT_NOINLINE PT_HD Color<T> camera_emission_other_way(const SceneView<T>& scene, 
   if (!bidirectional_hit(scene, ray, IntersectContext<T>{scene.boundaries, &random, bounce + 1}, hit, largest<T>()))
     return camera_meets_background(scene, ray, throughput, T(0));
   const Material<T>& material = scene.materials[material_of_hit(scene.primitives[hit.primitive], scene.meshes, hit)];
-  if (!std::holds_alternative<DiffuseLight<T>>(material)) return Color<T>{};  // the only material that emits
+  if (!material_emits(material)) return Color<T>{};
   const SurfacePoint<T> on_light = bidirectional_describe(scene, ray, hit, material, true);
   const T cosine = vertex_cosine(on_light, false, ray.direction), distance = to_unit(scene, hit.t);
   weights_at_camera_vertex(scene, distance, cosine, reverse_mis, connect_mis, merge_mis);
@@ -789,14 +789,17 @@ PT_HD inline Color<T> trace_camera_subpath(const SceneView<T>& scene, const Samp
     }
     Scatter<T> scatter;
     const BounceRandom bounce_random{&random, bounce};
-    if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) break;
     if (const auto* glass = std::get_if<Dielectric<T>>(&material)) {
+      // Glass's ways made once, for the scattering and for the split.
       const DielectricWays<T> ways = dielectric_ways(*glass, ray, at, bounce_random, true);
+      scatter = dielectric_scatter(*glass, ray, at, ways);
       if (ways.other_share > T(0)) {
         radiance += camera_emission_other_way(scene, random, at, ways.other, ray.time, vertex_cosine(at, false, ways.other), reverse_mis, connect_mis,
                                               merge_mis, bounce, throughput * scatter.attenuation * ways.other_share, rays);
         emission_share = ways.taken_share;
       }
+    } else if (!material_scatter(material, ray, at, scene.textures, scene.texture_data, bounce_random, scatter)) {
+      break;
     }
     const T out_cosine = vertex_cosine(at, in_medium, scatter.ray.direction);
     if (scatter.pdf > T(0)) {

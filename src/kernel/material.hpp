@@ -228,6 +228,12 @@ PT_HD inline DielectricWays<T> dielectric_ways(const Dielectric<T>& m, const Ray
   return DielectricWays<T>{taken, other, reflects ? reflectance : T(1) - reflectance, reflects ? T(1) - reflectance : reflectance};
 }
 
+// Glass's scattering along the way taken.
+template <class T>
+PT_HD inline Scatter<T> dielectric_scatter(const Dielectric<T>& m, const Ray<T>& in, const SurfacePoint<T>& at, const DielectricWays<T>& ways) {
+  return Scatter<T>{m.tint, spawn_ray(at, ways.taken, in.time), T(0)};
+}
+
 // Samples the next direction. Returns false when the material absorbs the ray (or only emits).
 template <class T>
 PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in, const SurfacePoint<T>& at, const Texture<T>* textures,
@@ -264,7 +270,7 @@ PT_HD inline bool material_scatter(const Material<T>& material, const Ray<T>& in
       return dot(direction, at.normal) > T(0);
     }
     PT_HD bool operator()(const Dielectric<T>& m) const {
-      out = {m.tint, spawn_ray(at, dielectric_ways(m, in, at, random).taken, in.time), T(0)};
+      out = dielectric_scatter(m, in, at, dielectric_ways(m, in, at, random));
       return true;
     }
     PT_HD bool operator()(const DiffuseLight<T>&) const { return false; }
@@ -354,6 +360,13 @@ template <class T>
 PT_HD inline bool material_needs_tangent(const Material<T>& material) {
   const auto* m = std::get_if<MetallicRoughness<T>>(&material);
   return m && m->normal_map != kNoNormalMap;
+}
+
+// Whether a material emits at all (what material_emitted gives is then not zero everywhere): where a hit is described
+// only for its emission, the test before describing it.
+template <class T>
+PT_HD inline bool material_emits(const Material<T>& material) {
+  return std::holds_alternative<DiffuseLight<T>>(material);
 }
 
 // Radiance the surface emits towards the incoming ray.
