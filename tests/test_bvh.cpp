@@ -567,7 +567,9 @@ TYPED_TEST(BvhStructure, EveryMeshInstanceHasALeafOfItsOwn) {
   int instances = 0, shared_sphere_leaves = 0;
   for (const BvhNode<T>& n : flat.nodes)
     for (u32 p = n.left_first; n.count > 0 && p < n.left_first + n.count; ++p)
-      if (is_instance(p)) EXPECT_EQ(n.count, 1u) << "a binary leaf holds instance " << p << " and more";
+      if (is_instance(p)) {
+        EXPECT_EQ(n.count, 1u) << "a binary leaf holds instance " << p << " and more";
+      }
   for (const WideBvhNode<T>& n : flat.wide_nodes)
     for (u32 lane = 0; lane < kWideBvhWidth; ++lane) {
       if (!(n.leaf_mask >> lane & 1u)) continue;
